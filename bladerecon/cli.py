@@ -1,0 +1,177 @@
+"""Headless entry point: ``python3 -m bladerecon reconstruct measured.csv -o blade.step ...``.
+
+Errors a user can cause print one line ``bladerecon: error: ...`` on stderr and exit with
+status 2; input files are never written; outputs are written atomically (a failed run leaves
+no half-written STEP or report behind). Progress goes to stderr, the ``--json`` summary to
+stdout. Set ``BLADERECON_DEBUG=1`` to see a traceback for an internal error.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+
+import numpy as np
+
+from . import __version__
+from .core.errors import BladeReconError
+
+__all__ = ["main", "build_parser"]
+
+
+class _Progress:
+    def __init__(self, quiet: bool) -> None:
+        self.quiet = quiet
+
+    def __call__(self, msg: str) -> None:
+        if not self.quiet:
+            print(f"bladerecon: {msg}", file=sys.stderr, flush=True)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="python3 -m bladerecon",
+                                     description="Blade surface reconstruction from measured sections (units: mm).")
+    parser.add_argument("--version", action="version", version=f"bladerecon {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True)
+    r = sub.add_parser("reconstruct", help="measured sections -> native B-spline surface (+ STEP)",
+                       description="Fit one periodic x clamped cubic B-spline surface through measured "
+                                   "blade sections. All lengths in mm.")
+    r.add_argument("input", help="point file: CSV with x,y,z[,section] header, 'x y z' blocks, or a section table")
+    r.add_argument("-o", "--output", help="STEP file to write (mm); written atomically")
+    r.add_argument("--nominal", help="nominal blade (STEP/IGES/BREP/FCStd) to compute the shape error against")
+    r.add_argument("--report", metavar="DIR", help="folder for summary.json, points.csv, plots")
+    r.add_argument("--json", action="store_true", help="print one JSON summary object to stdout")
+    r.add_argument("--method", choices=("auto", "interpolate", "approximate"), default="auto",
+                   help="auto (default): interpolate or smooth, chosen from point spacing against noise")
+    r.add_argument("--tolerance", type=float, metavar="MM",
+                   help="with --method approximate: largest allowed distance of a measured point (mm)")
+    r.add_argument("--pairing", choices=("anchored", "angle"), default="anchored",
+                   help="corresponding points between sections: LE/TE-anchored common parameter "
+                        "(default) or the angle pairing of seed 000 Fig. 5 (interpolates the paired points)")
+    r.add_argument("--solid", action="store_true", help="close hub and tip with planar caps; write a solid")
+    r.add_argument("--quiet", action="store_true", help="no progress messages on stderr")
+    return parser
+
+
+def _stats(d: np.ndarray, signed: bool | None = None) -> dict:
+    from .core.projection import distance_stats
+    return distance_stats(d, signed=signed)
+
+
+def run_reconstruct(args: argparse.Namespace) -> dict:
+    from .core.readers import read_points
+    from .core.sections import build_sections
+    from .core.reconstruct import reconstruct
+    from .core.pairing import reconstruct_paired
+    from .core.projection import project_points_to_surface
+
+    say = _Progress(args.quiet or False)
+    if args.tolerance is not None and args.method != "approximate":
+        raise BladeReconError("--tolerance applies to --method approximate; add --method approximate")
+    if args.pairing == "angle" and args.method == "approximate":
+        raise BladeReconError("--pairing angle interpolates the paired points; use it without --method approximate")
+    for path, what in ((args.output, "--output"), (args.report, "--report")):
+        if path:
+            parent = os.path.dirname(os.path.abspath(path)) or "."
+            if not os.path.isdir(parent):
+                raise BladeReconError(f"{what} {path}: folder {parent} does not exist; create it first")
+    if args.output and os.path.abspath(args.output) == os.path.abspath(args.input):
+        raise BladeReconError(f"--output {args.output} is the input file: choose another name (inputs are never overwritten)")
+    t_start = time.perf_counter()
+    say(f"reading {args.input}")
+    pointset = read_points(args.input)
+    sections = build_sections(pointset)
+    t_read = time.perf_counter()
+    n_reordered = sum(s.reordered for s in sections.sections)
+    say(f"{len(pointset.points)} points in {len(sections.sections)} sections"
+        + (f" ({n_reordered} reordered along the profile)" if n_reordered else ""))
+
+    pts = [s.points for s in sections.sections]
+    say("fitting section curves and surface")
+    if args.pairing == "angle":
+        rec = reconstruct_paired(pts, sections.span_axis)
+    else:
+        rec = reconstruct(pts, sections.span_axis, method=args.method, tolerance=args.tolerance)
+    measured = np.concatenate(pts)
+    proj = project_points_to_surface(rec.surface, measured, rec.point_u, rec.point_v)
+    t_fit = time.perf_counter()
+    surf = rec.surface
+    say(f"surface {surf.shape[0]} x {surf.shape[1]} poles ({rec.choice.method}); "
+        f"fit max {proj.distance.max() * 1000:.2f} µm")
+
+    summary: dict = {
+        "input": {"file": args.input, "format": pointset.format, "points": int(len(pointset.points)),
+                  "sections": len(sections.sections), "reordered_sections": int(n_reordered), "units": "mm"},
+        "surface": {"u_poles": surf.shape[0], "v_poles": surf.shape[1], "u_degree": surf.u_degree,
+                    "v_degree": surf.v_degree, "u_periodic": bool(surf.u_periodic),
+                    "method": rec.choice.method, "method_reason": rec.choice.reason,
+                    "pairing": args.pairing, "noise_estimate_mm": rec.choice.noise_mm,
+                    "tolerance_mm": rec.tolerance, "refit_error_mm": rec.refit_error},
+        "fit": _stats(proj.distance),
+    }
+    if getattr(rec, "added_points", None) is not None:
+        summary["surface"]["pairing_added_points"] = int(rec.added_points)
+
+    t_exp0 = time.perf_counter()
+    shape = None
+    if args.output or args.nominal:
+        from .fc.freecad_env import import_freecad
+        say("loading FreeCAD")
+        import_freecad()
+    if args.output:
+        from .fc.convert import make_face
+        from .fc.export import make_solid, write_step
+        shape = make_solid(surf) if args.solid else make_face(surf)
+        write_step(shape, args.output)
+        summary["output"] = {"step": args.output, "solid": bool(args.solid)}
+        say(f"wrote {args.output}")
+    t_export = time.perf_counter()
+
+    nominal_dev = None
+    if args.nominal:
+        from .fc.compare import deviation_to_nominal, surface_samples
+        say(f"comparing with nominal {args.nominal}")
+        uv, samples = surface_samples(surf)
+        dev_surface = deviation_to_nominal(samples, args.nominal)
+        dev_points = deviation_to_nominal(measured, args.nominal)
+        summary["nominal"] = {**_stats(dev_surface.signed, signed=True), "file": args.nominal,
+                              "samples": int(samples.shape[0]), "method": dev_surface.method}
+        summary["measured_to_nominal"] = _stats(dev_points.signed, signed=True)
+        nominal_dev = (uv, samples, dev_surface.signed, dev_points.signed)
+    t_compare = time.perf_counter()
+    summary["seconds"] = {"read": t_read - t_start, "fit": t_fit - t_read, "export": t_export - t_exp0,
+                          "compare": t_compare - t_export, "total": t_compare - t_start}
+    if args.report:
+        from .report import write_report
+        write_report(args.report, summary, sections, measured, proj, nominal_dev)
+        say(f"report in {args.report}")
+    return summary
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        if args.command == "reconstruct":
+            summary = run_reconstruct(args)
+            if args.json:
+                print(json.dumps(summary, indent=2))
+        return 0
+    except BladeReconError as err:
+        print(f"bladerecon: error: {err}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("bladerecon: interrupted; no output was completed", file=sys.stderr)
+        return 130
+    except Exception as err:  # an internal error: one line unless debugging
+        if os.environ.get("BLADERECON_DEBUG"):
+            raise
+        print(f"bladerecon: internal error: {type(err).__name__}: {err} "
+              "(please report it; set BLADERECON_DEBUG=1 for details)", file=sys.stderr)
+        return 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

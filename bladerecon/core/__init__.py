@@ -1,0 +1,1 @@
+"""FreeCAD-free core of BladeRecon: numpy + scipy only (never import FreeCAD/Part here)."""
