@@ -1,0 +1,376 @@
+"""Stage 1 of the pipeline: a measured point file -> :class:`PointSet` (units: mm).
+
+Three formats, recognised by content (never by file extension):
+
+``csv``
+    A header row naming ``x``, ``y``, ``z`` (case-insensitive, any order, an optional
+    unit suffix ``x [mm]`` / ``x_mm``; extra columns ignored) and optionally ``section``,
+    a label (int or text). Delimiter ``,`` or ``;`` (detected from the header; with ``;``
+    a decimal comma is accepted). Without a ``section`` column, blank lines separate
+    the sections.
+``xyz-blocks``
+    ``x y z`` per line (or ``id x y z``; the id is ignored), sections separated by blank
+    lines or ``#`` lines (one or more).
+``section-table``
+    The layout of ``shared/data/nasa_rotor37/rotor37_sections_xyz_mm.txt``: ``#`` lines,
+    a line ``NPTS NSECTIONS``, then exactly NPTS*NSECTIONS lines ``x y z``.
+
+Sections are numbered 0.. in order of first appearance. CSV section labels are kept as
+names (an integer label ``3.0`` or ``03`` is named ``3``); sections without a label are
+named ``1``, ``2``, ... (the 1-based position, as in the NASA tables).
+
+Every error a user can cause raises :class:`BladeReconError` with a one-line message
+naming the file, the line and what to do. The input file is only ever read.
+"""
+from __future__ import annotations
+
+import os
+import re
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+
+from bladerecon.core.errors import BladeReconError
+
+__all__ = ["PointSet", "read_points", "write_points_csv"]
+
+_NO_STRUCTURE = (
+    "points have no section structure: add a 'section' column to the CSV or separate "
+    "sections by blank lines; slicing unordered clouds is not supported yet"
+)
+_UNIT_SUFFIX = re.compile(r"[\s_]*[\[(]?\s*mm\s*[\])]?$")
+
+
+@dataclass(frozen=True, eq=False)
+class PointSet:
+    """Measured points with their section labels, as read from one file.
+
+    Attributes:
+        points: (N, 3) float64 coordinates in mm, in file order (read-only array).
+        section: (N,) int section index, 0-based, in order of first appearance.
+        line: (N,) int 1-based line number of each point in the file.
+        section_names: one name per section index.
+        source: the path the points were read from.
+        format: ``'csv'``, ``'xyz-blocks'`` or ``'section-table'``.
+    """
+
+    points: np.ndarray
+    section: np.ndarray
+    line: np.ndarray
+    section_names: tuple[str, ...]
+    source: str
+    format: str
+
+    def __post_init__(self) -> None:
+        for name in ("points", "section", "line"):
+            getattr(self, name).flags.writeable = False
+
+    @property
+    def n_sections(self) -> int:
+        return len(self.section_names)
+
+    def section_points(self, k: int) -> np.ndarray:
+        """The (n, 3) points (mm) of section ``k`` in file order."""
+        return self.points[self.section == k]
+
+    def section_lines(self, k: int) -> np.ndarray:
+        """The 1-based file line numbers of the points of section ``k``."""
+        return self.line[self.section == k]
+
+
+def read_points(path: str | os.PathLike) -> PointSet:
+    """Read a point file (mm); the format ('csv', 'xyz-blocks', 'section-table', see the
+    module docstring) is detected from the first line that is not blank or ``#``.
+
+    Raises:
+        BladeReconError: missing/unreadable/empty file, bad header or cell, NaN/inf,
+            wrong point count, or points with no section structure.
+    """
+    source = str(path)
+    lines = _read_lines(source)
+    first = next((i for i, ln in enumerate(lines) if ln.strip() and not _is_comment(ln)), None)
+    if first is None:
+        raise BladeReconError(f"{source}: no points in the file (only blank or '#' lines): "
+                              "give one point per line")
+    head = lines[first].strip()
+    tokens = re.split(r"[,;\s]+", head)
+    n_numeric = sum(_is_number(t) for t in tokens)
+    if n_numeric == 0:
+        return _read_csv(source, lines, first)
+    if "," in head or ";" in head:
+        raise BladeReconError(
+            f"{source}, line {first + 1}: comma-separated values without a header row: "
+            "add a header naming the columns, e.g. 'section,x,y,z'")
+    if n_numeric == len(tokens) == 2:
+        return _read_section_table(source, lines, first)
+    if n_numeric < len(tokens) and len(tokens) not in (3, 4):
+        raise BladeReconError(
+            f"{source}, line {first + 1}: '{head[:60]}' is neither a header naming x, y, z nor "
+            "a line of numbers: use a CSV with a header, or 'x y z' lines")
+    return _read_xyz_blocks(source, lines, first, len(tokens))
+
+
+def write_points_csv(path: str | os.PathLike, points: np.ndarray, section: np.ndarray,
+                     names: Sequence[str] | None = None) -> None:
+    """Write points (mm) as ``section,x,y,z`` CSV, atomically (temp file + os.replace).
+
+    ``section`` holds 0-based indices; the column gets ``names[index]`` when names are
+    given, else the index. Coordinates are written with full round-trip precision.
+    """
+    pts = np.asarray(points, dtype=float)
+    sec = np.asarray(section)
+    if pts.ndim != 2 or pts.shape[1] != 3 or sec.shape != (pts.shape[0],):
+        raise ValueError(f"points must be (N, 3) and section (N,), got {pts.shape} and {sec.shape}")
+    if not np.all(np.isfinite(pts)):
+        raise ValueError("points contain NaN or inf")
+    sec = sec.astype(int)
+    if sec.size and sec.min() < 0:
+        raise ValueError("section indices must be >= 0")
+    if names is None:
+        labels = [str(k) for k in range(int(sec.max(initial=-1)) + 1)]
+    else:
+        labels = [str(n).strip() for n in names]
+        bad = [n for n in labels if not n or n.startswith("#") or re.search(r"[,;\"\n\r]", n)]
+        if bad:
+            raise ValueError(f"section names must be non-empty, not start with #, and hold no "
+                             f", ; \" or newlines: {bad}")
+        if sec.size and sec.max() >= len(labels):
+            raise ValueError(f"section index {sec.max()} but only {len(labels)} names")
+    rows = [f"{labels[s]},{x!r},{y!r},{z!r}\n" for s, (x, y, z) in zip(sec.tolist(), pts.tolist())]
+    _write_atomically(Path(path), "section,x,y,z\n" + "".join(rows))
+
+
+def _write_atomically(target: Path, text: str) -> None:
+    """Write ``text`` to a temp file beside ``target``, then rename it over ``target``:
+    readers see the old file or the new one, never half of one."""
+    if target.exists():
+        mode = target.stat().st_mode & 0o777
+    else:
+        umask = os.umask(0)
+        os.umask(umask)
+        mode = 0o666 & ~umask
+    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as fh:
+            fh.write(text)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.chmod(tmp, mode)             # mkstemp makes 0600 files
+        os.replace(tmp, target)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+# --- file level ------------------------------------------------------------------------
+
+def _read_lines(source: str) -> list[str]:
+    """File text split into lines (1-based line k is ``lines[k-1]``), newline style agnostic."""
+    try:
+        raw = Path(source).read_bytes()
+    except FileNotFoundError:
+        raise BladeReconError(f"{source}: file not found: check the path") from None
+    except IsADirectoryError:
+        raise BladeReconError(f"{source}: is a folder, not a point file: give the file") from None
+    except OSError as err:
+        raise BladeReconError(f"{source}: cannot read the file ({err.strerror}): "
+                              "check its permissions") from None
+    if not raw.strip():
+        raise BladeReconError(f"{source}: the file is empty: give one point per line")
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        text = raw.decode("latin-1")
+    return text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
+
+
+def _is_comment(line: str) -> bool:
+    return line.lstrip().startswith("#")
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def _blocks(lines: list[str], first: int) -> tuple[list[int], np.ndarray]:
+    """Indices of data lines from ``first`` on, and each one's block number.
+
+    A block is a run of data lines; blank and ``#`` lines end it (any number of them).
+    """
+    stripped = [ln.strip() for ln in lines[first:]]
+    is_data = np.array([s[:1] not in ("", "#") for s in stripped], dtype=bool)
+    idx = np.flatnonzero(is_data) + first
+    block = np.concatenate([[0], np.cumsum(np.diff(idx) > 1)]) if idx.size else idx
+    return idx.tolist(), block.astype(int)
+
+
+def _split_rows(source: str, lines: list[str], idx: list[int], sep: str | None,
+                ncol: int, at_least: bool = False) -> list[list[str]]:
+    """Split data lines into cells; every row must have ``ncol`` cells (or more)."""
+    rows = [lines[i].split(sep) for i in idx]
+    for i, row in zip(idx, rows):
+        if len(row) != ncol and not (at_least and len(row) > ncol):
+            want = f"at least {ncol}" if at_least else str(ncol)
+            raise BladeReconError(f"{source}, line {i + 1}: expected {want} columns, found "
+                                  f"{len(row)}: give every point the same columns")
+    return rows
+
+
+def _to_float(source: str, idx: list[int], cells: list[str], column: str,
+              decimal_comma: bool = False) -> np.ndarray:
+    """One column of cells -> float array; a bad cell names its line, column and text."""
+    if decimal_comma:
+        cells = [c.replace(",", ".") for c in cells]
+    try:
+        values = np.array(list(map(float, cells)), dtype=float)
+    except ValueError:
+        values = np.empty(len(cells))
+        for k, (i, c) in enumerate(zip(idx, cells)):
+            try:
+                values[k] = float(c.strip().strip("\"'"))
+            except ValueError:
+                raise BladeReconError(
+                    f"{source}, line {i + 1}: column '{column}' has '{c.strip()}', which is "
+                    "not a number: correct or delete that line") from None
+    bad = np.flatnonzero(~np.isfinite(values))
+    if bad.size:
+        raise BladeReconError(f"{source}, line {idx[bad[0]] + 1}: column '{column}' is "
+                              f"'{cells[bad[0]].strip()}' (NaN or infinite): correct or delete "
+                              "that line")
+    return values
+
+
+def _point_set(source: str, fmt: str, xyz: np.ndarray, section: np.ndarray,
+               idx: list[int], names: Sequence[str]) -> PointSet:
+    return PointSet(points=np.ascontiguousarray(xyz, dtype=float), section=section.astype(int),
+                    line=np.asarray(idx, dtype=int) + 1, section_names=tuple(names),
+                    source=source, format=fmt)
+
+
+def _require_structure(source: str, idx: list[int], block: np.ndarray) -> None:
+    if block.size and block[-1] == 0:
+        raise BladeReconError(f"{source}, lines {idx[0] + 1}–{idx[-1] + 1}: {_NO_STRUCTURE}")
+
+
+# --- formats ---------------------------------------------------------------------------
+
+def _read_csv(source: str, lines: list[str], first: int) -> PointSet:
+    header = lines[first]
+    sep = ";" if header.count(";") > header.count(",") else ","
+    if sep not in header:
+        sep = None  # one header cell, or whitespace-separated: reported below if unusable
+    names = [c.strip().strip("\"'").strip().lower() for c in header.split(sep)]
+    plain = [_UNIT_SUFFIX.sub("", n) for n in names]
+    col: dict[str, int] = {}
+    for k, n in enumerate(plain):
+        if n in ("x", "y", "z", "section"):
+            if n in col:
+                raise BladeReconError(f"{source}, line {first + 1}: column '{n}' appears twice "
+                                      "in the header: keep one")
+            col[n] = k
+    missing = [c for c in "xyz" if c not in col]
+    if missing:
+        found = ", ".join(repr(n) for n in names)
+        raise BladeReconError(
+            f"{source}, line {first + 1}: header has no column {', '.join(map(repr, missing))} "
+            f"(found {found}): name the coordinate columns x, y, z")
+
+    idx, block = _blocks(lines, first + 1)
+    if not idx:
+        raise BladeReconError(f"{source}, line {first + 1}: header but no data rows: "
+                              "give one point per line below the header")
+    rows = _split_rows(source, lines, idx, sep, len(names), at_least=True)
+    decimal_comma = sep == ";"
+    xyz = np.column_stack([_to_float(source, idx, [r[col[c]] for r in rows], names[col[c]],
+                                     decimal_comma) for c in "xyz"])
+    if "section" in col:
+        section, names_found = _section_labels(source, idx, [r[col["section"]] for r in rows])
+        return _point_set(source, "csv", xyz, section, idx, names_found)
+    _require_structure(source, idx, block)
+    return _point_set(source, "csv", xyz, block, idx, [str(b + 1) for b in range(block[-1] + 1)])
+
+
+def _section_labels(source: str, idx: list[int], cells: list[str]) -> tuple[np.ndarray, list[str]]:
+    """Section column -> 0-based index per row (order of first appearance) and the names.
+
+    Integer-valued labels are normalised ('03', '3.0' -> '3'); work is per distinct label.
+    """
+    raw, first_row, inverse = np.unique(np.asarray(cells), return_index=True, return_inverse=True)
+    norm = [_label(c) for c in raw]
+    empty = [first_row[k] for k, n in enumerate(norm) if not n]
+    if empty:
+        raise BladeReconError(f"{source}, line {idx[min(empty)] + 1}: empty 'section' cell: "
+                              "give every point a section label")
+    names, code = np.unique(np.asarray(norm), return_inverse=True)
+    first_of_name = np.full(names.size, len(cells))
+    np.minimum.at(first_of_name, code, first_row)
+    order = np.argsort(first_of_name)
+    rank = np.empty_like(order)
+    rank[order] = np.arange(order.size)
+    return rank[code][inverse], [str(names[k]) for k in order]
+
+
+def _label(cell: str) -> str:
+    s = cell.strip().strip("\"'").strip()
+    try:
+        v = float(s)
+    except ValueError:
+        return s
+    return str(int(v)) if np.isfinite(v) and v == int(v) else s
+
+
+def _read_xyz_blocks(source: str, lines: list[str], first: int, ncol: int) -> PointSet:
+    if ncol not in (3, 4):
+        raise BladeReconError(f"{source}, line {first + 1}: expected 'x y z' (3 numbers) or "
+                              f"'id x y z' (4 numbers), found {ncol} values: use one of these "
+                              "layouts or a CSV with a header")
+    idx, block = _blocks(lines, first)
+    rows = _split_rows(source, lines, idx, None, ncol)
+    names = ["x", "y", "z"] if ncol == 3 else ["id", "x", "y", "z"]
+    if ncol == 4:  # ids are not used, but must be numbers for the layout to make sense
+        _to_float(source, idx, [r[0] for r in rows], "id")
+    xyz = np.column_stack([_to_float(source, idx, [r[k] for r in rows], names[k])
+                           for k in range(ncol - 3, ncol)])
+    _require_structure(source, idx, block)
+    return _point_set(source, "xyz-blocks", xyz, block, idx,
+                      [str(b + 1) for b in range(block[-1] + 1)])
+
+
+def _read_section_table(source: str, lines: list[str], first: int) -> PointSet:
+    head = lines[first].split()
+    try:
+        npts, nsec = int(head[0]), int(head[1])
+    except ValueError:
+        raise BladeReconError(f"{source}, line {first + 1}: expected 'NPTS NSECTIONS' (two "
+                              f"whole numbers), found '{lines[first].strip()}': fix the "
+                              "header line") from None
+    if npts < 1 or nsec < 1:
+        raise BladeReconError(f"{source}, line {first + 1}: 'NPTS NSECTIONS' must be positive, "
+                              f"found {npts} {nsec}: fix the header line")
+    want = npts * nsec
+    idx, _ = _blocks(lines, first + 1)
+    if len(idx) < want:
+        last = idx[-1] + 1 if idx else first + 1
+        raise BladeReconError(
+            f"{source}, line {last}: the file ends after {len(idx)} points but the header on "
+            f"line {first + 1} promises {npts} x {nsec} = {want}: fix the header or add the "
+            "missing points")
+    if len(idx) > want:
+        raise BladeReconError(
+            f"{source}, line {idx[want] + 1}: point {want + 1} is more than the header on line "
+            f"{first + 1} promises ({npts} x {nsec} = {want}): fix the header or remove the "
+            "extra lines")
+    rows = _split_rows(source, lines, idx, None, 3)
+    xyz = np.column_stack([_to_float(source, idx, [r[k] for r in rows], c)
+                           for k, c in enumerate("xyz")])
+    section = np.repeat(np.arange(nsec), npts)
+    return _point_set(source, "section-table", xyz, section, idx,
+                      [str(k + 1) for k in range(nsec)])
