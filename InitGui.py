@@ -1,0 +1,29 @@
+# BladeRecon workbench: only the Workbench class. Commands live in bladerecon.gui.commands.
+#
+# This file is exec'd by FreeCAD, not imported: every import happens inside the methods.
+import FreeCADGui
+
+
+class BladeReconWorkbench(FreeCADGui.Workbench):
+    """Measured blade sections to a native B-spline surface, deviation analysis and STEP."""
+
+    MenuText = "BladeRecon"
+    ToolTip = "Reconstruct a blade surface from measured section points and export STEP"
+
+    def __init__(self):
+        from bladerecon.gui import paths
+
+        self.__class__.Icon = paths.icon("BladeRecon")
+
+    def Initialize(self):
+        from bladerecon.gui import commands
+
+        names = list(commands.COMMANDS)
+        self.appendToolbar("BladeRecon", names)
+        self.appendMenu("BladeRecon", names)
+
+    def GetClassName(self):
+        return "Gui::PythonWorkbench"
+
+
+FreeCADGui.addWorkbench(BladeReconWorkbench())
