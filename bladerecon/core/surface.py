@@ -134,7 +134,7 @@ def anchor_section(sc: SectionCurve, span_axis: np.ndarray, le_hint: np.ndarray 
     if le_hint is not None:
         swap = np.linalg.norm(pb - le_hint) < np.linalg.norm(pa - le_hint)
     else:
-        swap = _edge_width(curve, t_b, pa, pb) > _edge_width(curve, t_a, pb, pa)
+        swap = _edge_width(curve, t_b, pb, pa) > _edge_width(curve, t_a, pa, pb)
     if swap:
         t_a, t_b, pa, pb = t_b, t_a, pb, pa
     lo, hi = curve.domain
@@ -145,20 +145,30 @@ def anchor_section(sc: SectionCurve, span_axis: np.ndarray, le_hint: np.ndarray 
 
 
 def _edge_width(curve: BSplineCurve, t_edge: float, p_edge: np.ndarray, p_other: np.ndarray) -> float:
-    """Width of the section 5 % of the chord in from an edge (a proxy for the edge radius)."""
+    """Width of the section at a depth of 1 % of the chord behind an edge.
+
+    For a round edge of radius r the width at depth δ < r is ``2·sqrt(2rδ − δ²)``: it grows
+    with the edge radius, while deeper in (several % of the chord) the width follows the
+    thickness distribution instead. Used to tell the blunter (leading) edge.
+    """
     chord = p_other - p_edge
     L = np.linalg.norm(chord)
     d = chord / L
     lo, hi = curve.domain
     t = lo + (hi - lo) * np.arange(_TABLE) / _TABLE
     pts = evaluate_curve(curve, t)
-    x = (pts - p_edge) @ d
-    near = np.abs(x - 0.05 * L) < 0.01 * L
-    if near.sum() < 2:
-        return 0.0
-    q = pts[near] - p_edge
-    perp = q - np.outer(q @ d, d)
-    return float(np.max(np.linalg.norm(perp[:, None, :] - perp[None, :, :], axis=2)))
+    depth = (pts - p_edge) @ d
+    perp = (pts - p_edge) - np.outer(depth, d)
+    side = perp @ (perp[np.argmax(np.linalg.norm(perp, axis=1))] / max(np.linalg.norm(perp, axis=1).max(), 1e-300))
+    target = 0.01 * L
+    widths = []
+    for sign in (1.0, -1.0):  # one crossing of the depth line on each side of the edge
+        m = (np.sign(side) == sign) & (depth < 0.5 * L)
+        if not m.any():
+            return 0.0
+        j = np.flatnonzero(m)[np.argmin(np.abs(depth[m] - target))]
+        widths.append(abs(side[j]))
+    return float(sum(widths))
 
 
 def common_parameter(anchored: list[AnchoredSection]) -> float:
