@@ -18,10 +18,9 @@ import time
 
 import numpy as np
 
-from .bspline import collocation_matrix, evaluate_curve
-from .fitting import periodic_knots_from_parameters, solve_sparse
+from .bspline import evaluate_curve
 from .section_curves import MethodChoice, choose_method, fit_section_interpolate
-from .surface import AnchoredSection, anchor_section, skin_surface, span_parameters
+from .surface import AnchoredSection, anchor_section, closed_grid_parameters, interpolate_grid, span_parameters
 
 __all__ = ["edge_lines_meeting_point", "normalised_angles", "pair_sections", "reconstruct_paired"]
 
@@ -178,9 +177,11 @@ def reconstruct_paired(section_points: list[np.ndarray], span_axis: np.ndarray):
     """
     from .reconstruct import Reconstruction
 
+    from .reconstruct import first_point_edge_hint
+
     t0 = time.perf_counter()
     curves = [fit_section_interpolate(k, p) for k, p in enumerate(section_points)]
-    anchored, hint = [], None
+    anchored, hint = [], first_point_edge_hint(section_points[0])
     for sc in curves:
         a = anchor_section(sc, span_axis, le_hint=hint)
         anchored.append(a)
@@ -196,18 +197,9 @@ def reconstruct_paired(section_points: list[np.ndarray], span_axis: np.ndarray):
     for k, own in enumerate(owners):  # measured points exactly, not re-evaluated
         m = own >= 0
         grid[k, m] = section_points[k][own[m]]
-    # centripetal parameters around each row, averaged over the rows (seed 000 §2.4)
-    seg = np.sqrt(np.linalg.norm(np.roll(grid, -1, axis=1) - grid, axis=2))      # (S, N)
-    u_rows = np.concatenate([np.zeros((grid.shape[0], 1)), np.cumsum(seg, axis=1)], axis=1)
-    u_rows = u_rows / u_rows[:, -1:]
-    u = u_rows[:, :-1].mean(axis=0)
-    knots, mults = periodic_knots_from_parameters(u, 3)
-    N = grid.shape[1]
-    A = collocation_matrix(knots, mults, 3, True, N, u)
-    S = grid.shape[0]
-    poles = solve_sparse(A, grid.transpose(1, 0, 2).reshape(N, 3 * S)).reshape(N, S, 3).transpose(1, 0, 2)
+    surface = interpolate_grid(grid)
     v = span_parameters(grid)
-    surface = skin_surface(knots, mults, poles, v)
+    u = closed_grid_parameters(grid)
     pu = np.concatenate([_point_params(own, u, len(p)) for own, p in zip(owners, section_points)])
     pv = np.concatenate([np.full(len(p), v[k]) for k, p in enumerate(section_points)])
     choice = choose_method(section_points)
@@ -225,3 +217,4 @@ def _point_params(owner: np.ndarray, u: np.ndarray, n: int) -> np.ndarray:
     m = owner >= 0
     out[owner[m]] = u[m]
     return out
+

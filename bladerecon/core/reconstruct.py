@@ -33,7 +33,7 @@ from .surface import (
 )
 from .bspline import evaluate_curve
 
-__all__ = ["Reconstruction", "reconstruct", "METHODS", "DEFAULT_REFIT_TOL"]
+__all__ = ["Reconstruction", "reconstruct", "first_point_edge_hint", "METHODS", "DEFAULT_REFIT_TOL"]
 
 METHODS = ("auto", "interpolate", "approximate")
 #: how closely the compatible (common-knot) section curves reproduce the fitted ones, mm
@@ -69,6 +69,22 @@ def _fit_sections(pts: list[np.ndarray], choice: MethodChoice, tolerance: float 
     return [fit_section_approximate(k, p, tol, rms_target=rms) for k, p in enumerate(pts)]
 
 
+def first_point_edge_hint(points: np.ndarray) -> np.ndarray | None:
+    """The first point, if it sits at one end of the section (within 3 % of its extent).
+
+    Section tables (NASA, seed 000 plans) and most CMM plans start at the leading edge;
+    when the data says so, that end is the LE. Otherwise None: the blunter edge is taken.
+    """
+    p = np.asarray(points, float)
+    c = p - p.mean(axis=0)
+    axis = np.linalg.svd(c, full_matrices=False)[2][0]
+    x = c @ axis
+    extent = np.ptp(x)
+    if min(abs(x[0] - x.min()), abs(x.max() - x[0])) <= 0.03 * extent:
+        return p[0]
+    return None
+
+
 def reconstruct(section_points: list[np.ndarray], span_axis: np.ndarray, method: str = "auto",
                 tolerance: float | None = None, refit_tol: float | None = None) -> Reconstruction:
     """Reconstruct the blade surface from ordered, consistently oriented closed sections.
@@ -97,7 +113,7 @@ def reconstruct(section_points: list[np.ndarray], span_axis: np.ndarray, method:
     t1 = time.perf_counter()
 
     anchored: list[AnchoredSection] = []
-    hint = None
+    hint = first_point_edge_hint(section_points[0])
     for sc in curves:
         a = anchor_section(sc, span_axis, le_hint=hint)
         anchored.append(a)

@@ -593,19 +593,10 @@ def nominal_surface(blade: SampleBlade, n_span: int = 21, n_profile: int = 900,
     clamped cubic along the span (eq. 8). Its distance from the true surface is measured in
     ``tests/test_sample_nominal.py`` (well under a micrometre).
     """
-    from .fitting import periodic_knots_from_parameters, solve_sparse
-    from .bspline import collocation_matrix
-    from .surface import skin_surface, span_parameters
+    from .surface import interpolate_grid
 
     heights = np.linspace(0.0, 1.0, n_span)
     frac = np.arange(n_profile) / n_profile
     grid = np.stack([blade.point(h, t_at_length_fraction(blade, h, frac, curvature_weight))
                      for h in heights])                                       # (S, N, 3)
-    seg = np.sqrt(np.linalg.norm(np.roll(grid, -1, axis=1) - grid, axis=2))
-    u_rows = np.cumsum(seg, axis=1) / seg.sum(axis=1, keepdims=True)
-    u = np.concatenate([[0.0], u_rows[:, :-1].mean(axis=0)])
-    knots, mults = periodic_knots_from_parameters(u, 3)
-    A = collocation_matrix(knots, mults, 3, True, n_profile, u)
-    poles = solve_sparse(A, grid.transpose(1, 0, 2).reshape(n_profile, 3 * n_span))
-    poles = poles.reshape(n_profile, n_span, 3).transpose(1, 0, 2)
-    return skin_surface(knots, mults, poles, span_parameters(grid, "chord"))
+    return interpolate_grid(grid, "chord")

@@ -35,6 +35,8 @@ __all__ = [
     "fit_compatible_sections",
     "span_parameters",
     "skin_surface",
+    "interpolate_grid",
+    "closed_grid_parameters",
 ]
 
 _TABLE = 4000  # samples per section for the arc-length table
@@ -299,3 +301,29 @@ def skin_surface(u_knots: np.ndarray, u_mults: np.ndarray, section_poles: np.nda
     poles = R.transpose(1, 0, 2).copy()                    # (n_u, n_v, 3)
     return BSplineSurface(poles, np.asarray(u_knots, float), np.asarray(u_mults, int),
                           v_knots, v_mults, 3, q, True, False)
+
+
+def closed_grid_parameters(grid: np.ndarray) -> np.ndarray:
+    """Centripetal parameters around closed sections (S, N, 3), averaged over the sections (seed 000 §2.4)."""
+    seg = np.sqrt(np.linalg.norm(np.roll(grid, -1, axis=1) - grid, axis=2))   # (S, N)
+    u_rows = np.cumsum(seg, axis=1) / seg.sum(axis=1, keepdims=True)
+    return np.concatenate([[0.0], u_rows[:, :-1].mean(axis=0)])
+
+
+def interpolate_grid(grid: np.ndarray, v_kind: str = "centripetal") -> BSplineSurface:
+    """Tensor-product interpolation of a closed grid of corresponding points (seed 000 §2.4).
+
+    ``grid``: (S, N, 3) — S sections (hub to tip) of N corresponding points each, every
+    section a closed loop (closing point not repeated). Centripetal parameters around each
+    section, averaged over the sections; periodic cubic knots at them (eq. 7); every section
+    interpolated with that one knot vector (eq. 9, one factorisation for all sections), then
+    the poles spanwise (eq. 8, :func:`skin_surface`).
+    """
+    from .fitting import periodic_knots_from_parameters
+
+    S, N, _ = grid.shape
+    u = closed_grid_parameters(grid)
+    knots, mults = periodic_knots_from_parameters(u, 3)
+    A = collocation_matrix(knots, mults, 3, True, N, u)
+    poles = solve_sparse(A, grid.transpose(1, 0, 2).reshape(N, 3 * S)).reshape(N, S, 3).transpose(1, 0, 2)
+    return skin_surface(knots, mults, poles, span_parameters(grid, v_kind))
