@@ -58,7 +58,7 @@ def _plot_nominal(path: str, uv: np.ndarray, dev: np.ndarray) -> None:
     fig, ax = plt.subplots(figsize=(10, 4.5), dpi=110)
     lim = max(np.abs(dev).max() * 1000.0, 1e-3)
     sc = ax.scatter(uv[:, 0], uv[:, 1], c=dev * 1000.0, s=6, cmap="coolwarm", vmin=-lim, vmax=lim)
-    fig.colorbar(sc, ax=ax, label="surface − nominal, signed (µm); + = material outside the nominal")
+    fig.colorbar(sc, ax=ax, label="surface − nominal (µm), + = outside")
     ax.set_xlabel("u (around the section; 0 = leading edge)")
     ax.set_ylabel("v (span, hub → tip)")
     ax.set_title("Reconstructed surface against the nominal")
