@@ -1,0 +1,99 @@
+"""Shape error against a nominal blade (STEP/IGES/BREP/FCStd): signed distances in mm.
+
+Stage "analysis" of the pipeline (seed 000 §2.4 shape error; seed 001 §2 minimum distance).
+A nominal that is one non-rational B-spline face goes through the core's vectorised
+projection (:mod:`bladerecon.core.projection`); anything else through OpenCASCADE per point
+(:mod:`bladerecon.fc.occ_measure`). Sign: + where the point is outside the nominal
+(material in excess), − inside.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from bladerecon.core.bspline import evaluate_surface
+from bladerecon.core.errors import BladeReconError
+from bladerecon.core.projection import project_points_to_surface
+from bladerecon.core.spline import BSplineSurface
+
+__all__ = ["Deviation", "deviation_to_nominal", "surface_samples", "outward_sign"]
+
+
+@dataclass(frozen=True)
+class Deviation:
+    signed: np.ndarray   # (m,) mm, + outside the nominal
+    method: str          # "core-projection" | "occ"
+
+
+def surface_samples(surface: BSplineSurface, n_u: int = 400, n_v: int = 41) -> tuple[np.ndarray, np.ndarray]:
+    """A grid of points on the surface for surface-to-nominal comparison: ((m, 2) uv, (m, 3) xyz).
+
+    u samples follow the knots (8 per span) so round edges, where knots are dense, are
+    sampled as densely as the surface can change there; v is sampled evenly.
+    """
+    k = np.asarray(surface.u_knots, float)
+    per = max(2, int(np.ceil(n_u / (k.size - 1))))
+    f = np.arange(per) / per
+    u = (k[:-1, None] + np.diff(k)[:, None] * f[None, :]).ravel()
+    v0, v1 = surface.v_domain
+    v = np.linspace(v0, v1, n_v)
+    uu, vv = np.meshgrid(u, v, indexing="ij")
+    uv = np.column_stack([uu.ravel(), vv.ravel()])
+    return uv, evaluate_surface(surface, uv[:, 0], uv[:, 1])
+
+
+def outward_sign(surface: BSplineSurface) -> float:
+    """+1 if S_u × S_v points out of a closed-in-u blade surface, −1 if it points in.
+
+    Majority vote over a grid: the normal should point away from the centroid of its own
+    iso-v section. (A blade section is not star-shaped, but most of it faces away.)
+    """
+    from bladerecon.core.bspline import surface_derivatives
+
+    u = np.linspace(*surface.u_domain, 64, endpoint=False)
+    v = np.linspace(*surface.v_domain, 9)
+    uu, vv = np.meshgrid(u, v, indexing="ij")
+    d = surface_derivatives(surface, uu.ravel(), vv.ravel(), 1)
+    p = d[:, 0, 0].reshape(64, 9, 3)
+    n = np.cross(d[:, 1, 0], d[:, 0, 1]).reshape(64, 9, 3)
+    away = np.einsum("ijk,ijk->ij", n, p - p.mean(axis=0, keepdims=True))
+    return 1.0 if np.mean(away > 0) >= 0.5 else -1.0
+
+
+def _single_bspline_face(shape):
+    faces = shape.Faces
+    if len(faces) != 1:
+        return None
+    face = faces[0]
+    surf = face.Surface
+    if type(surf).__name__ != "BSplineSurface" or surf.isURational() or surf.isVRational():
+        return None
+    # the face must use the whole surface (untrimmed): compare parameter ranges
+    u0, u1, v0, v1 = face.ParameterRange
+    U0, U1, V0, V1 = surf.bounds()
+    span = max(U1 - U0, V1 - V0)
+    if max(abs(u0 - U0), abs(u1 - U1), abs(v0 - V0), abs(v1 - V1)) > 1e-9 * max(span, 1.0):
+        return None
+    return face
+
+
+def deviation_to_nominal(points: np.ndarray, nominal) -> Deviation:
+    """Signed distance (mm) of each point to the nominal (a path or a Part.Shape)."""
+    from .convert import from_part_surface
+    from .export import read_shape
+    from .occ_measure import occ_distances
+
+    shape = read_shape(nominal) if isinstance(nominal, (str, bytes)) or hasattr(nominal, "__fspath__") else nominal
+    pts = np.asarray(points, dtype=float)
+    face = _single_bspline_face(shape)
+    if face is not None:
+        surf = from_part_surface(face.Surface)
+        proj = project_points_to_surface(surf, pts)
+        sign = outward_sign(surf) if surf.u_periodic else 1.0
+        if face.Orientation == "Reversed":
+            sign = -sign if not surf.u_periodic else sign
+        return Deviation(sign * proj.signed, "core-projection")
+    if not shape.Faces:
+        raise BladeReconError("the nominal has no faces: export the blade surface or solid to STEP")
+    return Deviation(np.asarray(occ_distances(pts, shape, signed=True), float), "occ")
