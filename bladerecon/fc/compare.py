@@ -90,9 +90,10 @@ def deviation_to_nominal(points: np.ndarray, nominal) -> Deviation:
     if face is not None:
         surf = from_part_surface(face.Surface)
         proj = project_points_to_surface(surf, pts)
-        sign = outward_sign(surf) if surf.u_periodic else 1.0
-        if face.Orientation == "Reversed":
-            sign = -sign if not surf.u_periodic else sign
+        if surf.u_periodic:   # a closed blade surface: outward is decided by the geometry
+            sign = outward_sign(surf)
+        else:                 # an open face: the face's own orientation says which side is out
+            sign = -1.0 if face.Orientation == "Reversed" else 1.0
         return Deviation(sign * proj.signed, "core-projection")
     if not shape.Faces:
         raise BladeReconError("the nominal has no faces: export the blade surface or solid to STEP")
