@@ -106,12 +106,12 @@ def test_approximate_keeps_every_point_within_tolerance_with_fewer_poles():
     assert poles[1] < poles[0]
 
 
-def test_scrambled_and_reversed_input_give_equally_accurate_surfaces(occ):
-    """Measurement order does not matter: the same loops come out, and the same accuracy.
+def test_scrambled_and_reversed_input_give_the_same_surface():
+    """Measurement order does not matter: the same loops, and surfaces within 0.1 µm.
 
-    (The surfaces agree at the sections to < 1 µm; between sections they can differ by a
-    few µm because the LE is located on a sampling of the curve that starts at the first
-    point.)"""
+    (Not bit-identical: the LE is located on a sampling of the curve that starts at the
+    first point, which moves it by ~0.2 µm; the surfaces then differ by ~0.03 µm.)"""
+    from bladerecon.core.bspline import evaluate_surface
     from bladerecon.core.readers import PointSet
 
     secs = sample_sections(BLADE, 4, 300, "uniform", noise=0.0, seed=7)
@@ -130,10 +130,12 @@ def test_scrambled_and_reversed_input_give_equally_accurate_surfaces(occ):
             p, q = a.sections[k].points, x.sections[k].points
             shift = int(np.argmin(np.linalg.norm(q - p[0], axis=1)))
             assert np.array_equal(np.roll(q, -shift, axis=0), p)
-    truth = dense_truth(BLADE, 13, 300)
-    errs = [occ(reconstruct([s.points for s in x.sections], x.span_axis, method="interpolate").surface,
-                truth).max() for x in (a, b, c)]
-    assert max(errs) < 0.010 and max(errs) - min(errs) < 0.001
+    sa, sb, sc = (reconstruct([s.points for s in x.sections], x.span_axis, method="interpolate").surface
+                  for x in (a, b, c))
+    u, v = rng.random(2000), rng.random(2000)
+    ref = evaluate_surface(sa, u, v)
+    for s in (sb, sc):
+        assert project_points_to_surface(s, ref).distance.max() < 1e-4
 
 
 @pytest.mark.parametrize("n_sections,degree", [(2, 1), (3, 2), (4, 3)])
