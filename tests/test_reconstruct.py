@@ -13,7 +13,7 @@ import pytest
 from bladerecon.core.errors import BladeReconError
 from bladerecon.core.pairing import reconstruct_paired
 from bladerecon.core.readers import read_points
-from bladerecon.core.reconstruct import reconstruct
+from bladerecon.core.reconstruct import DEFAULT_REFIT_TOL, reconstruct
 from bladerecon.core.sample_blade import SampleBlade, dense_truth, sample_sections
 from bladerecon.core.section_curves import choose_method, estimate_noise
 from bladerecon.core.sections import build_sections
@@ -107,10 +107,11 @@ def test_approximate_keeps_every_point_within_tolerance_with_fewer_poles():
 
 
 def test_scrambled_and_reversed_input_give_the_same_surface():
-    """Measurement order does not matter: the same loops, and surfaces within 0.1 µm.
+    """Measurement order does not matter: the same loops, and surfaces within the refit tolerance.
 
     (Not bit-identical: the LE is located on a sampling of the curve that starts at the
-    first point, which moves it by ~0.2 µm; the surfaces then differ by ~0.03 µm.)"""
+    first point, which moves it by ~0.2 µm; the common knots then differ slightly and the
+    surfaces by up to ~0.2 µm, below the 0.3 µm to which the compatible curves are refitted.)"""
     from bladerecon.core.bspline import evaluate_surface
     from bladerecon.core.readers import PointSet
 
@@ -135,7 +136,7 @@ def test_scrambled_and_reversed_input_give_the_same_surface():
     u, v = rng.random(2000), rng.random(2000)
     ref = evaluate_surface(sa, u, v)
     for s in (sb, sc):
-        assert project_points_to_surface(s, ref).distance.max() < 1e-4
+        assert project_points_to_surface(s, ref).distance.max() < DEFAULT_REFIT_TOL
 
 
 @pytest.mark.parametrize("n_sections,degree", [(2, 1), (3, 2), (4, 3)])
