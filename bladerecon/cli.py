@@ -52,6 +52,10 @@ def build_parser() -> argparse.ArgumentParser:
                         "(default) or the angle pairing of seed 000 Fig. 5 (interpolates the paired points)")
     r.add_argument("--solid", action="store_true", help="close hub and tip with planar caps; write a solid")
     r.add_argument("--quiet", action="store_true", help="no progress messages on stderr")
+    from .deviation_cli import add_parser as add_deviation_parser
+    add_deviation_parser(sub)
+    from .acquire.commands import add_parsers as add_acquire_parsers
+    add_acquire_parsers(sub)
     return parser
 
 
@@ -90,10 +94,12 @@ def run_reconstruct(args: argparse.Namespace) -> dict:
 
     pts = [s.points for s in sections.sections]
     say("fitting section curves and surface")
+    measured_start = not sections.sections[0].reordered
     if args.pairing == "angle":
-        rec = reconstruct_paired(pts, sections.span_axis)
+        rec = reconstruct_paired(pts, sections.span_axis, first_point_is_measured=measured_start)
     else:
-        rec = reconstruct(pts, sections.span_axis, method=args.method, tolerance=args.tolerance)
+        rec = reconstruct(pts, sections.span_axis, method=args.method, tolerance=args.tolerance,
+                          first_point_is_measured=measured_start)
     measured = np.concatenate(pts)
     proj = project_points_to_surface(rec.surface, measured, rec.point_u, rec.point_v)
     t_fit = time.perf_counter()
@@ -158,6 +164,16 @@ def main(argv: list[str] | None = None) -> int:
             summary = run_reconstruct(args)
             if args.json:
                 print(json.dumps(summary, indent=2))
+        elif args.command == "deviation":
+            from .deviation_cli import run_deviation
+            summary = run_deviation(args)
+            if args.json:
+                print(json.dumps(summary, indent=2))
+        elif args.command in ("acquire", "simulate-instrument"):
+            from .acquire.commands import run_acquire, run_simulate
+            summary = (run_acquire if args.command == "acquire" else run_simulate)(args)
+            if args.command == "simulate-instrument" or args.json:
+                print(json.dumps(summary), flush=True)
         return 0
     except BladeReconError as err:
         print(f"bladerecon: error: {err}", file=sys.stderr)

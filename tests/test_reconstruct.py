@@ -13,7 +13,7 @@ import pytest
 from bladerecon.core.errors import BladeReconError
 from bladerecon.core.pairing import reconstruct_paired
 from bladerecon.core.readers import read_points
-from bladerecon.core.reconstruct import DEFAULT_REFIT_TOL, reconstruct
+from bladerecon.core.reconstruct import reconstruct
 from bladerecon.core.sample_blade import SampleBlade, dense_truth, sample_sections
 from bladerecon.core.section_curves import choose_method, estimate_noise
 from bladerecon.core.sections import build_sections
@@ -107,11 +107,10 @@ def test_approximate_keeps_every_point_within_tolerance_with_fewer_poles():
 
 
 def test_scrambled_and_reversed_input_give_the_same_surface():
-    """Measurement order does not matter: the same loops, and surfaces within the refit tolerance.
+    """Measurement order does not matter: the same loops, the same LE, the same surface.
 
-    (Not bit-identical: the LE is located on a sampling of the curve that starts at the
-    first point, which moves it by ~0.2 µm; the common knots then differ slightly and the
-    surfaces by up to ~0.2 µm, below the 0.3 µm to which the compatible curves are refitted.)"""
+    (LE/TE are a fixed point of "chord from the ends, ends where the tangent is
+    perpendicular to the chord", so they do not depend on where the curve was sampled.)"""
     from bladerecon.core.bspline import evaluate_surface
     from bladerecon.core.readers import PointSet
 
@@ -131,12 +130,15 @@ def test_scrambled_and_reversed_input_give_the_same_surface():
             p, q = a.sections[k].points, x.sections[k].points
             shift = int(np.argmin(np.linalg.norm(q - p[0], axis=1)))
             assert np.array_equal(np.roll(q, -shift, axis=0), p)
-    sa, sb, sc = (reconstruct([s.points for s in x.sections], x.span_axis, method="interpolate").surface
-                  for x in (a, b, c))
+    recs = [reconstruct([s.points for s in x.sections], x.span_axis, method="interpolate",
+                        first_point_is_measured=not x.sections[0].reordered) for x in (a, b, c)]
+    for r in recs[1:]:   # the same edge is named LE whatever the order
+        assert max(np.linalg.norm(p.le - q.le) for p, q in zip(recs[0].anchored, r.anchored)) < 1e-6
+    sa, sb, sc = (r.surface for r in recs)
     u, v = rng.random(2000), rng.random(2000)
     ref = evaluate_surface(sa, u, v)
     for s in (sb, sc):
-        assert project_points_to_surface(s, ref).distance.max() < DEFAULT_REFIT_TOL
+        assert project_points_to_surface(s, ref).distance.max() < 1e-6
 
 
 @pytest.mark.parametrize("n_sections,degree", [(2, 1), (3, 2), (4, 3)])

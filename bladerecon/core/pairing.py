@@ -170,7 +170,8 @@ def pair_sections(anchored: list[AnchoredSection], point_arcs: list[np.ndarray])
     return columns, owners, added
 
 
-def reconstruct_paired(section_points: list[np.ndarray], span_axis: np.ndarray):
+def reconstruct_paired(section_points: list[np.ndarray], span_axis: np.ndarray,
+                       first_point_is_measured: bool = True):
     """Seed 000's own pipeline: interpolate each section, pair points by angles, interpolate the grid.
 
     Returns a :class:`~bladerecon.core.reconstruct.Reconstruction` with ``added_points``.
@@ -181,7 +182,8 @@ def reconstruct_paired(section_points: list[np.ndarray], span_axis: np.ndarray):
 
     t0 = time.perf_counter()
     curves = [fit_section_interpolate(k, p) for k, p in enumerate(section_points)]
-    anchored, hint = [], first_point_edge_hint(section_points[0])
+    anchored = []
+    hint = first_point_edge_hint(section_points[0]) if first_point_is_measured else None
     for sc in curves:
         a = anchor_section(sc, span_axis, le_hint=hint)
         anchored.append(a)

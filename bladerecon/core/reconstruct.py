@@ -86,7 +86,8 @@ def first_point_edge_hint(points: np.ndarray) -> np.ndarray | None:
 
 
 def reconstruct(section_points: list[np.ndarray], span_axis: np.ndarray, method: str = "auto",
-                tolerance: float | None = None, refit_tol: float | None = None) -> Reconstruction:
+                tolerance: float | None = None, refit_tol: float | None = None,
+                first_point_is_measured: bool = True) -> Reconstruction:
     """Reconstruct the blade surface from ordered, consistently oriented closed sections.
 
     ``section_points``: one (n_k, 3) array per section, hub to tip, each ordered around the
@@ -95,6 +96,9 @@ def reconstruct(section_points: list[np.ndarray], span_axis: np.ndarray, method:
     :func:`~bladerecon.core.section_curves.choose_method`), ``interpolate`` or
     ``approximate``; ``tolerance`` (mm) is the largest distance a measured point may have
     from the surface with ``approximate`` (fewest poles that keep it).
+    ``first_point_is_measured``: the first section starts where the measurement started (not
+    a computed order), so a start at an edge names that edge the LE
+    (:func:`first_point_edge_hint`).
     """
     if method not in METHODS:
         raise BladeReconError(f"unknown method '{method}': use one of {', '.join(METHODS)}")
@@ -113,7 +117,7 @@ def reconstruct(section_points: list[np.ndarray], span_axis: np.ndarray, method:
     t1 = time.perf_counter()
 
     anchored: list[AnchoredSection] = []
-    hint = first_point_edge_hint(section_points[0])
+    hint = first_point_edge_hint(section_points[0]) if first_point_is_measured else None
     for sc in curves:
         a = anchor_section(sc, span_axis, le_hint=hint)
         anchored.append(a)

@@ -93,20 +93,34 @@ def find_le_te(curve: BSplineCurve, span_axis: np.ndarray, samples: int = _TABLE
             break
         d = nd
     d3 = d @ basis
-    out = []
-    for i in (i_le, i_te):
-        tt = np.array([t[i]])
-        for _ in range(20):  # Newton on f(t) = C'(t)·d
-            der = curve_derivatives(curve, tt, 2)
-            f, fp = der[0, 1] @ d3, der[0, 2] @ d3
-            if abs(fp) < 1e-300:
-                break
-            step = float(np.clip(-f / fp, -(hi - lo) / samples, (hi - lo) / samples))
-            tt = tt + step
-            if abs(step) < 1e-14:
-                break
-        out.append(float(lo + np.mod(tt[0] - lo, hi - lo)))
-    return out[0], out[1]
+    ts = [t[i_le], t[i_te]]
+    for _ in range(4):  # chord from the refined ends until it stops moving: a fixed point
+        ts = [_tangent_perpendicular(curve, tt, d3, samples) for tt in ts]
+        ends = evaluate_curve(curve, np.array(ts))
+        nd3 = ends[1] - ends[0]
+        nd3 -= (nd3 @ span_axis) * span_axis / (span_axis @ span_axis)
+        nd3 /= np.linalg.norm(nd3)
+        moved = np.linalg.norm(nd3 - d3)
+        d3 = nd3
+        if moved < 1e-13:
+            break
+    return ts[0], ts[1]
+
+
+def _tangent_perpendicular(curve: BSplineCurve, t0: float, d3: np.ndarray, samples: int) -> float:
+    """Newton on f(t) = C'(t)·d from t0: where the tangent is perpendicular to the chord."""
+    lo, hi = curve.domain
+    tt = np.array([t0])
+    for _ in range(20):
+        der = curve_derivatives(curve, tt, 2)
+        f, fp = der[0, 1] @ d3, der[0, 2] @ d3
+        if abs(fp) < 1e-300:
+            break
+        step = float(np.clip(-f / fp, -(hi - lo) / samples, (hi - lo) / samples))
+        tt = tt + step
+        if abs(step) < 1e-14:
+            break
+    return float(lo + np.mod(tt[0] - lo, hi - lo))
 
 
 def _arc_table(curve: BSplineCurve, t_start: float, n: int) -> tuple[np.ndarray, np.ndarray]:
