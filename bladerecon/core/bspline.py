@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from .spline import BSplineCurve, BSplineSurface
+from .spline import BSplineCurve, BSplineSurface, full_knot_vector
 
 __all__ = [
     "chord_parameters",
@@ -205,8 +205,6 @@ def basis_derivatives(U: np.ndarray, degree: int, span: np.ndarray, u: np.ndarra
 
 def _prepare(knots, mults, degree, periodic, n_poles, u):
     """Full knot vector, spans and pole indices (periodic indices wrapped) for parameters u."""
-    from .spline import full_knot_vector
-
     U = full_knot_vector(knots, mults, degree, periodic)
     u = np.asarray(u, dtype=float).ravel()
     lo, hi = float(knots[0]), float(knots[-1])

@@ -32,6 +32,7 @@ __all__ = [
     "smoothing_matrix",
     "least_squares_curve",
     "solve_sparse",
+    "approximate_curve",
 ]
 
 
@@ -211,5 +212,3 @@ def approximate_curve(points: np.ndarray, n_poles: int, degree: int = 3, params:
     knots, mults = knots_from_full(U)
     return least_squares_curve(Q, u, knots, mults, degree, False, fix_ends=True)
 
-
-__all__.append("approximate_curve")

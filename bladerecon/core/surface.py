@@ -25,6 +25,7 @@ from .bspline import averaged_knots, collocation_matrix, curve_derivatives, eval
 from .errors import BladeReconError
 from .fitting import knots_from_full, solve_sparse
 from .section_curves import SectionCurve
+from .sections import section_plane_frame
 from .spline import BSplineCurve, BSplineSurface
 
 __all__ = [
@@ -58,18 +59,6 @@ class AnchoredSection:
     perimeter: float       # mm
 
 
-def _project_2d(points: np.ndarray, span_axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """An orthonormal in-plane basis (e1, e2) with e1 × e2 = span_axis, and 2D coordinates."""
-    a = np.asarray(span_axis, float) / np.linalg.norm(span_axis)
-    c = points - points.mean(axis=0)
-    c = c - np.outer(c @ a, a)
-    _, _, vt = np.linalg.svd(c, full_matrices=False)
-    e1 = vt[0] - (vt[0] @ a) * a
-    e1 /= np.linalg.norm(e1)
-    e2 = np.cross(a, e1)
-    return np.stack([e1, e2]), c @ np.stack([e1, e2]).T
-
-
 def find_le_te(curve: BSplineCurve, span_axis: np.ndarray, samples: int = _TABLE) -> tuple[float, float]:
     """Leading/trailing edge parameters: the two points of the section extreme along its chord.
 
@@ -83,7 +72,9 @@ def find_le_te(curve: BSplineCurve, span_axis: np.ndarray, samples: int = _TABLE
     lo, hi = curve.domain
     t = lo + (hi - lo) * np.arange(samples) / samples
     pts = evaluate_curve(curve, t)
-    basis, xy = _project_2d(pts, span_axis)
+    origin, e1, e2 = section_plane_frame(pts, span_axis)
+    basis = np.stack([e1, e2])
+    xy = (pts - origin) @ basis.T
     d = np.array([1.0, 0.0])
     for _ in range(6):
         i_le, i_te = int(np.argmin(xy @ d)), int(np.argmax(xy @ d))
@@ -266,8 +257,7 @@ def fit_compatible_sections(anchored: list[AnchoredSection], s_te: float, refit_
         rhs = (A.T @ Q.transpose(1, 0, 2).reshape(s.size, 3 * S))
         P = solve_sparse(M, rhs).reshape(n, S, 3).transpose(1, 0, 2)           # (S, n, 3)
         Ac = collocation_matrix(knots, mults, 3, True, n, s_chk)
-        fit = np.einsum("mn,snd->smd", Ac.toarray(), P) if n * s_chk.size < 4e6 else \
-            np.stack([Ac @ P[k] for k in range(S)])
+        fit = np.stack([Ac @ P[k] for k in range(S)])                          # (S, m_chk, 3)
         dev = np.linalg.norm(fit - Qc, axis=2).max(axis=0)                     # (m_chk,)
         err = float(dev.max())
         span_err = dev.reshape(n, per_span + 1).max(axis=1)
