@@ -40,3 +40,15 @@ demo: deps
 
 bench: deps
 	$(PYTHON) bench/run_all.py
+
+# Live acquisition demo: the simulated controller on a pty (paced like 115200 baud, with faults
+# and two disconnects), captured by `acquire`, then reconstructed.
+.PHONY: demo-acquire
+demo-acquire: deps
+	@mkdir -p demo_out && rm -f demo_out/ttyBLADE demo_out/acquired.journal
+	@$(PYTHON) -m bladerecon simulate-instrument --link demo_out/ttyBLADE --points 400 --bad-checksum 0.01 \
+	  --garbled 0.005 --out-of-range 0.01 --disconnects 2 --drop-block 10 --seed 1 > demo_out/simulator.json & \
+	for i in $$(seq 100); do [ -L demo_out/ttyBLADE ] && break; sleep 0.1; done; \
+	$(PYTHON) -m bladerecon acquire --port demo_out/ttyBLADE -o demo_out/acquired.csv \
+	  --journal demo_out/acquired.journal --json && wait && \
+	$(PYTHON) -m bladerecon reconstruct demo_out/acquired.csv --quiet --json
