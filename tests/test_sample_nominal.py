@@ -26,9 +26,12 @@ def _true_points(n=500, seed=0):
     blade = SampleBlade()
     rng = np.random.default_rng(seed)
     h, t = rng.random(n), rng.random(n)
-    # half of them on the round edges, where the G1 joints make a cubic work hardest
-    le_te = np.concatenate([[0.0], np.asarray(blade.te_parameter(0.5)).ravel()])
-    t[: n // 2] = (rng.choice(le_te, n // 2) + rng.normal(0, 0.01, n // 2)) % 1.0
+    # half of them on the round edges (at each point's own height), where the G1 joints
+    # make a cubic work hardest
+    k = n // 2
+    te = np.array([float(np.asarray(blade.te_parameter(x)).ravel()[0]) for x in h[:k]])
+    edge = np.where(rng.random(k) < 0.5, 0.0, te)
+    t[:k] = (edge + rng.normal(0, 0.005, k)) % 1.0
     return np.concatenate([blade.point(hi, ti).reshape(1, 3) for hi, ti in zip(h, t)])
 
 
