@@ -1,0 +1,121 @@
+"""``python3 -m bladerecon deviation MEASURED --nominal NOMINAL ...``: signed deviation from the nominal.
+
+Issue 4 §5. Parser and runner of the subcommand (``cli.py`` only wires them in). Lengths in
+mm, angles in degrees. Errors a user can cause raise :class:`BladeReconError` (one line,
+exit status 2); the CSV and the report folder are written atomically.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+
+import numpy as np
+
+from .core.errors import BladeReconError
+
+__all__ = ["add_parser", "run_deviation"]
+
+
+def add_parser(sub) -> None:
+    d = sub.add_parser("deviation", help="signed deviation of measured points from the nominal (+ best fit, report)",
+                       description="Signed distance (mm, + where material is outside the nominal) of every "
+                                   "measured point to the nominal shape, optionally after a best-fit alignment.")
+    d.add_argument("measured", help="point file (any format 'reconstruct' reads; section labels optional), "
+                                    "or a reconstructed surface (STEP/IGES/BREP/FCStd, one B-spline face: sampled)")
+    d.add_argument("--nominal", required=True, help="nominal blade: STEP/IGES/BREP/FCStd")
+    d.add_argument("--align", choices=("none", "rigid", "translate", "rotate-z"), default="none",
+                   help="best fit before comparing: none (default), rigid, translate, or rotate-z (about the z axis)")
+    d.add_argument("--tolerance", type=float, default=0.03, metavar="MM",
+                   help="profile tolerance ±MM for within_tolerance_pct (default 0.03)")
+    d.add_argument("--csv", metavar="FILE", help="write x,y,z,deviation,nx,ny,nz,face per point")
+    d.add_argument("--report", metavar="DIR", help="write report.html with plots and deviations.csv into DIR")
+    d.add_argument("--json", action="store_true", help="print one JSON summary object to stdout")
+    d.add_argument("--quiet", action="store_true", help="no progress messages on stderr")
+
+
+def _say(args, msg: str) -> None:
+    if not args.quiet:
+        print(f"bladerecon: {msg}", file=sys.stderr, flush=True)
+
+
+def _check_outputs(args) -> None:
+    for path, what in ((args.csv, "--csv"), (args.report, "--report")):
+        if path:
+            parent = os.path.dirname(os.path.abspath(path)) or "."
+            if not os.path.isdir(parent):
+                raise BladeReconError(f"{what} {path}: folder {parent} does not exist; create it first")
+            if os.path.abspath(path) in (os.path.abspath(args.measured), os.path.abspath(args.nominal)):
+                raise BladeReconError(f"{what} {path} is an input file: choose another name (inputs are never overwritten)")
+    if not args.tolerance > 0:
+        raise BladeReconError(f"--tolerance {args.tolerance}: give a positive tolerance in mm")
+
+
+def run_deviation(args: argparse.Namespace) -> dict:
+    """Run the subcommand; returns the JSON summary."""
+    t0 = time.perf_counter()
+    _check_outputs(args)
+    from .fc.deviation import load_nominal, measure_deviation, read_measured, write_deviation_csv
+
+    _say(args, f"reading {args.measured}")
+    surface = None
+    if os.path.splitext(args.measured)[1].lower() in (".step", ".stp", ".iges", ".igs", ".brep", ".brp", ".fcstd"):
+        points, surface = _surface_points(args.measured)
+        section, names = None, ()
+    else:
+        points, section, names = read_measured(args.measured)
+    _say(args, f"{len(points)} points; reading nominal {args.nominal}")
+    nominal = load_nominal(args.nominal)
+    t_read = time.perf_counter()
+    if args.align != "none":
+        _say(args, f"best fit ({args.align})")
+    res = measure_deviation(points, nominal, args.align, args.tolerance, source=args.measured)
+    s = res.stats
+    _say(args, f"deviation max {s['max'] * 1000:.1f} µm, min {s['min'] * 1000:.1f} µm, "
+               f"{s['within_tolerance_pct']:.1f} % within ±{args.tolerance} mm")
+    summary = {
+        "points": s["points"], "max": s["max"], "min": s["min"], "mean": s["mean"], "std": s["std"],
+        "rms": s["rms"], "within_tolerance_pct": s["within_tolerance_pct"], "tolerance": args.tolerance,
+        "max_abs": s["max_abs"], "mean_abs": s["mean_abs"],
+        "alignment": _alignment_json(res.alignment),
+        "nominal": {"file": args.nominal, "faces": nominal.n_faces, "size_mm": nominal.size,
+                    "method": "+".join(res.deviation.methods)},
+        "units": "mm", "measured": args.measured,
+    }
+    if args.csv:
+        write_deviation_csv(args.csv, res.points, res.deviation)
+        _say(args, f"wrote {args.csv}")
+    t_done = time.perf_counter()
+    summary["seconds"] = {"read": t_read - t0, "align": res.seconds["align"], "measure": res.seconds["measure"],
+                          "total": t_done - t0}
+    if args.report:
+        from .deviation_report import write_deviation_report
+        write_deviation_report(args.report, summary, res, nominal, section, names, surface)
+        summary["seconds"]["report"] = time.perf_counter() - t_done
+        summary["seconds"]["total"] = time.perf_counter() - t0
+        _say(args, f"report in {args.report}")
+    return summary
+
+
+def _surface_points(path: str):
+    """A reconstructed surface given as MEASURED: its B-spline face sampled densely (the
+    ``reconstruct --nominal`` samples: 8 per knot span around, 41 along the span)."""
+    from .fc.compare import surface_samples
+    from .fc.convert import from_part_surface
+    from .fc.export import read_shape
+
+    shape = read_shape(path)
+    faces = [f for f in shape.Faces if type(f.Surface).__name__ == "BSplineSurface"]
+    if len(faces) != 1:
+        raise BladeReconError(f"{path}: expected one B-spline face (a reconstructed blade surface), "
+                              f"found {len(faces)} among {len(shape.Faces)} faces: give the point file instead")
+    surface = from_part_surface(faces[0].Surface)
+    return surface_samples(surface)[1], surface
+
+
+def _alignment_json(al) -> dict:
+    if al is None:
+        return {"mode": "none", "matrix": np.eye(4).tolist(), "rotation_deg": 0.0,
+                "translation_mm": [0.0, 0.0, 0.0]}
+    return al.as_dict()
