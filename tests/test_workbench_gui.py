@@ -156,9 +156,9 @@ def test_workbench_loads_from_user_mod_folder(gui_run):
 
 def test_toolbar_menu_and_command(gui_run):
     result, _ = gui_run
-    assert result["commands"] == ["BladeRecon_ImportPoints"]
+    assert sorted(result["commands"]) == ["BladeRecon_Acquire", "BladeRecon_ImportPoints"]
     assert result["toolbar_visible"]
-    assert result["toolbar_actions"] == ["Import measured points"]
+    assert result["toolbar_actions"] == ["Import measured points", "Acquire from instrument"]
     assert "BladeRecon" in result["menus"]
 
 

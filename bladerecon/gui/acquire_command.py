@@ -21,7 +21,7 @@ from bladerecon.core.errors import BladeReconError
 
 from . import commands
 
-__all__ = ["LiveAcquisition", "AcquireCommand", "update_preview"]
+__all__ = ["LiveAcquisition", "AcquireCommand", "update_preview", "COMMAND_NAME"]
 
 PREVIEW_NAME = "LiveAcquisition"
 REFRESH_MS = 500
@@ -141,4 +141,5 @@ class AcquireCommand(commands._Command):
             commands.show_error(str(err))
 
 
-FreeCADGui.addCommand("BladeRecon_Acquire", AcquireCommand())
+COMMAND_NAME = "BladeRecon_Acquire"
+FreeCADGui.addCommand(COMMAND_NAME, AcquireCommand())
