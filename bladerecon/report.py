@@ -80,13 +80,13 @@ def write_report(folder: str, summary: dict, sections, measured: np.ndarray, pro
         sec_name = np.concatenate([[s.name] * len(s.points) for s in sections.sections])
         lines = np.concatenate([s.lines for s in sections.sections])
         nom = nominal_dev[3] if nominal_dev is not None else None
-        with open(os.path.join(tmp, "points.csv"), "w", encoding="utf-8") as fh:
-            fh.write("section,line,x,y,z,fit_distance,fit_signed,nominal_signed\n")
-            for i in range(measured.shape[0]):
-                x, y, z = measured[i]
-                nv = f"{nom[i]:.6f}" if nom is not None else ""
-                fh.write(f"{sec_name[i]},{lines[i]},{x:.6f},{y:.6f},{z:.6f},"
-                         f"{proj.distance[i]:.6f},{proj.signed[i]:.6f},{nv}\n")
+        nominal = [f"{x:.6f}" for x in nom] if nom is not None else [""] * measured.shape[0]
+        table = np.empty((measured.shape[0], 8), dtype=object)
+        table[:, 0], table[:, 1], table[:, 2:5] = sec_name, lines, measured
+        table[:, 5], table[:, 6], table[:, 7] = proj.distance, proj.signed, nominal
+        np.savetxt(os.path.join(tmp, "points.csv"), table, delimiter=",", encoding="utf-8",
+                   fmt=["%s", "%d", "%.6f", "%.6f", "%.6f", "%.6f", "%.6f", "%s"],
+                   header="section,line,x,y,z,fit_distance,fit_signed,nominal_signed", comments="")
         _plot_fit(os.path.join(tmp, "fit.png"), sections, proj)
         if nominal_dev is not None:
             uv, samples, dev, _ = nominal_dev

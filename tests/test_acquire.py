@@ -119,15 +119,20 @@ def test_captured_points_reconstruct_the_clean_surface(big_capture):
     assert d.max() < 0.010  # the README target for the sample blade; the lost 1.6 % of points cost a few µm
 
 
-def test_pty_throughput(tmp_path):
-    """Records/s through a real pty, simulator as fast as it can write (no faults)."""
-    proc, link = simulator(tmp_path, "--sections", 4, "--points", 5000, "--rate", 0)
+def _timed_capture(proc, link, tmp_path):
+    """Capture a simulator run; returns (reader, acquisition, reader CPU s, records/s)."""
     reader = InstrumentReader(str(link), journal=tmp_path / "j.raw")
     cpu = time.process_time()
     acq = reader.run()
     cpu = time.process_time() - cpu
     proc.communicate(timeout=60)
-    rate = acq.summary()["records"] / reader.seconds
+    return reader, acq, cpu, acq.summary()["records"] / reader.seconds
+
+
+def test_pty_throughput(tmp_path):
+    """Records/s through a real pty, simulator as fast as it can write (no faults)."""
+    proc, link = simulator(tmp_path, "--sections", 4, "--points", 5000, "--rate", 0)
+    reader, acq, cpu, rate = _timed_capture(proc, link, tmp_path)
     print(f"\npty: {rate:,.0f} records/s ({acq.summary()['records']} records in {reader.seconds:.2f} s, "
           f"reader CPU {cpu:.2f} s), journal fsync per chunk")
     assert acq.summary()["points"] == 20000 and rate > 5000
@@ -164,12 +169,7 @@ def test_loop_url_throughput():
 def test_cpu_fraction_at_115200_baud(tmp_path):
     """At the rate 115200 baud carries (~10 bits per byte) the reader sleeps most of the time."""
     proc, link = simulator(tmp_path, "--sections", 2, "--points", 500)
-    reader = InstrumentReader(str(link), journal=tmp_path / "j.raw")
-    cpu = time.process_time()
-    acq = reader.run()
-    cpu = time.process_time() - cpu
-    proc.communicate(timeout=60)
-    rate = acq.summary()["records"] / reader.seconds
+    reader, acq, cpu, rate = _timed_capture(proc, link, tmp_path)
     print(f"\n115200 baud: {rate:.0f} records/s, reader CPU {cpu / reader.seconds:.1%} of one core")
     assert acq.summary()["points"] == 1000 and cpu / reader.seconds < 0.25
 

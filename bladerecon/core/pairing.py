@@ -98,11 +98,9 @@ def _transfer(arc, k: int, j: int, side: int, anchored, tables):
     o = _meeting_point(anchored[k], anchored[j])
     ak, pk = tables[k][side]
     aj, pj = tables[j][side]
-    ck = np.maximum.accumulate(_correspondence(pk, anchored[k], o))
-    cj = np.maximum.accumulate(_correspondence(pj, anchored[j], o))
-    if side == 1:  # TE → LE: the coordinate falls from 1 to 0 along +t
-        ck = np.maximum.accumulate(-_correspondence(pk, anchored[k], o))
-        cj = np.maximum.accumulate(-_correspondence(pj, anchored[j], o))
+    sign = -1.0 if side == 1 else 1.0  # TE → LE: the coordinate falls from 1 to 0 along +t
+    ck = np.maximum.accumulate(sign * _correspondence(pk, anchored[k], o))
+    cj = np.maximum.accumulate(sign * _correspondence(pj, anchored[j], o))
     c = np.interp(arc, ak, ck)
     return np.interp(c, cj + 1e-15 * np.arange(cj.size), aj)
 

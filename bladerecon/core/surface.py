@@ -166,7 +166,8 @@ def _edge_width(curve: BSplineCurve, t_edge: float, p_edge: np.ndarray, p_other:
     pts = evaluate_curve(curve, t)
     depth = (pts - p_edge) @ d
     perp = (pts - p_edge) - np.outer(depth, d)
-    side = perp @ (perp[np.argmax(np.linalg.norm(perp, axis=1))] / max(np.linalg.norm(perp, axis=1).max(), 1e-300))
+    size = np.linalg.norm(perp, axis=1)
+    side = perp @ (perp[np.argmax(size)] / max(size.max(), 1e-300))
     target = 0.01 * L
     widths = []
     for sign in (1.0, -1.0):  # one crossing of the depth line on each side of the edge
