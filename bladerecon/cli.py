@@ -56,7 +56,15 @@ def build_parser() -> argparse.ArgumentParser:
     add_deviation_parser(sub)
     from .acquire.commands import add_parsers as add_acquire_parsers
     add_acquire_parsers(sub)
+    import importlib
+    for module in SUBCOMMAND_MODULES:
+        importlib.import_module(module, __package__).add_parser(sub)
     return parser
+
+
+# Further subcommands live in their own modules, each with ``add_parser(sub)`` that calls
+# ``set_defaults(run=function_returning_summary_dict)``; main() prints the summary with --json.
+SUBCOMMAND_MODULES: tuple[str, ...] = ()
 
 
 def _stats(d: np.ndarray, signed: bool | None = None) -> dict:
@@ -170,6 +178,10 @@ def main(argv: list[str] | None = None) -> int:
             from .deviation_cli import run_deviation
             summary = run_deviation(args)
             if args.json:
+                print(json.dumps(summary, indent=2))
+        elif getattr(args, "run", None) is not None:
+            summary = args.run(args)
+            if getattr(args, "json", False):
                 print(json.dumps(summary, indent=2))
         elif args.command in ("acquire", "simulate-instrument"):
             from .acquire.commands import run_acquire, run_simulate
