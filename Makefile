@@ -38,8 +38,11 @@ demo: deps
 	@mkdir -p demo_out
 	$(PYTHON) -m bladerecon reconstruct resources/sample/measured.csv -o demo_out/blade.step --nominal resources/sample/nominal.step --report demo_out/report --json
 
+# run_all.py: reconstruction against FreeCAD's ways; each bench/bench_*.py: one topic's table
+# beside its peers (writes bench/results/<topic>.md).
 bench: deps
 	$(PYTHON) bench/run_all.py
+	@for b in bench/bench_*.py; do [ -e "$$b" ] || continue; echo "== $$b"; $(PYTHON) "$$b" || exit $$?; done
 
 # Live acquisition demo: the simulated controller on a pty (paced like 115200 baud, with faults
 # and two disconnects), captured by `acquire`, then reconstructed.
