@@ -40,7 +40,7 @@ from math import factorial
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .bspline import basis_derivatives, find_spans, wrap_parameters
+from .bspline import basis_derivatives, collocation_matrix, find_spans, wrap_parameters
 from .errors import BladeReconError
 from .spline import BSplineCurve, BSplineSurface, full_knot_vector
 from .tolerances import NEWTON_MAX_ITER
@@ -58,10 +58,10 @@ _THREADS = min(4, os.cpu_count() or 1)   # blocks run in parallel (numpy release
 _WINDOW = 2                 # grid steps within which samples count as the same part of the spline
 _N_FEW = 16                 # nearest samples looked at for a point that may have a closer foot elsewhere
 _N_WIDE = 64                # ... where the first 16 are all within its reach
-_MAX_STARTS = 4             # ... of which at most this many more Newton starts per point
+_MAX_STARTS = 6             # ... of which at most this many more Newton starts per point
 _SAMPLES_PER_SPAN = 6       # start grid density on a span of median length
 _MAX_SAMPLES_PER_SPAN = 256
-_MAX_GRID_SAMPLES = 250_000
+_MAX_GRID_SAMPLES = 60_000     # more samples give closer starts but cost more to build than they save
 _MAX_TURN_PER_SAMPLE = np.radians(20.0)   # tight edges get a sample every 20 degrees
 _TRUST_MAX = 2.0            # Newton steps are clipped to at most two knot spans
 _FINISH = 0.1               # Taylor-expanded steps keep their error under 0.1 tol
@@ -226,6 +226,7 @@ class _SurfaceModel:
         self.shape = (q1, p1, 3)                       # v power, u power, xyz
         self.table = np.ascontiguousarray(A.reshape(q1 * p1 * 3, -1))
         self.scale = float(np.abs(poles).max()) if poles.size else 1.0
+        self.surface = surface
         norms = np.linalg.norm(A, axis=2)                # (v power, u power, u span, v span)
         hu = 0.5 * self.u.lengths[:, None]
         hv = 0.5 * self.v.lengths[None, :]
@@ -304,25 +305,28 @@ def _sample_parameters(d: _SpanPolynomials, counts: np.ndarray) -> np.ndarray:
     return params if d.periodic else np.append(params, d.hi)
 
 
-def _grid_parameters(d: _SpanPolynomials, counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _grid_parameters(d: _SpanPolynomials, costs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Start-grid parameters of direction d and the piece each sample belongs to.
 
-    As :func:`_sample_parameters`, but a sample on a crease is there twice, once for each
-    piece (a foot just on either side of a fold must find a start on its own side).
+    ``costs[s]`` is how many grid steps span s is worth (its length over the spacing, or its
+    turning over 20 degrees, whichever is more; fractions allowed). Samples are spread evenly
+    in that measure over each piece, so that many short spans (a profile of 900 poles) can
+    share one grid step and the cells stay square; every piece gets both its ends, so a
+    sample on a crease is there twice, once for each piece (a foot just on either side of a
+    fold must find a start on its own side).
     """
-    params = _sample_parameters(d, counts)
-    first = np.cumsum(counts) - counts                       # index of each span's first sample
-    pieces = np.repeat(d.piece_of_span, counts)
-    if not d.periodic:
-        pieces = np.append(pieces, d.piece_of_span[-1])
-    ends = np.flatnonzero(np.diff(d.piece_of_span)) + 1      # spans that start a new piece
-    if not d.wraps and d.periodic:
-        params, pieces = np.append(params, d.hi), np.append(pieces, d.piece_of_span[-1])
-    if ends.size:
-        at = first[ends]
-        params = np.insert(params, at, params[at])
-        pieces = np.insert(pieces, at, d.piece_of_span[ends - 1])
-    return params, pieces
+    params, pieces = [], []
+    for k, (first, last) in enumerate(zip(d.piece_first, d.piece_last)):
+        c = costs[first: last + 1]
+        cum = np.concatenate([[0.0], np.cumsum(c)])
+        n = max(int(np.ceil(cum[-1] - 1e-9)), 1)
+        targets = np.linspace(0.0, cum[-1], n + 1)
+        t = np.interp(targets, cum, d.breaks[first: last + 2]) if cum[-1] > 0 else d.breaks[[first, last + 1]]
+        if d.wraps:
+            t = t[:-1]                      # the end is the start again
+        params.append(t)
+        pieces.append(np.full(t.size, k))
+    return np.concatenate(params), np.concatenate(pieces)
 
 
 def _polyline_measures(X: np.ndarray, closed: bool) -> tuple[np.ndarray, np.ndarray]:
@@ -356,18 +360,20 @@ def _sample_spacing(lengths: list[np.ndarray]) -> float:
     side of a thin edge) closer than the first shows up among them."""
     refs = [np.median(L[L > 0]) for L in lengths if np.any(L > 0)]
     spacing = min(refs) / _SAMPLES_PER_SPAN if refs else 1.0
-    for _ in range(64):      # coarser until the grid fits (4 per span stays the floor)
-        if np.prod([_span_counts(L, np.zeros_like(L), spacing).sum() for L in lengths]) <= _MAX_GRID_SAMPLES:
+    for _ in range(64):      # coarser until the grid fits (within the sample budget)
+        if np.prod([_grid_size(L, spacing) for L in lengths]) <= _MAX_GRID_SAMPLES:
             break
         spacing *= 1.25
     return spacing
 
 
-def _span_counts(lengths: np.ndarray, turns: np.ndarray, spacing: float) -> np.ndarray:
-    """Samples per span: one per ``spacing`` mm and per 20 degrees of turning, at least 4."""
-    by_length = np.ceil(lengths / spacing)
-    by_turn = np.ceil(turns / _MAX_TURN_PER_SAMPLE)
-    return np.clip(np.maximum(by_length, by_turn), 4, _MAX_SAMPLES_PER_SPAN).astype(int)
+def _span_costs(lengths: np.ndarray, turns: np.ndarray, spacing: float) -> np.ndarray:
+    """Grid steps per span: one per ``spacing`` mm and per 20 degrees of turning (fractional)."""
+    return np.clip(np.maximum(lengths / spacing, turns / _MAX_TURN_PER_SAMPLE), 0.0, _MAX_SAMPLES_PER_SPAN)
+
+
+def _grid_size(lengths: np.ndarray, spacing: float) -> int:
+    return int(np.ceil(lengths.sum() / spacing)) + 1
 
 
 def _cell_cover(X: np.ndarray, periodic: tuple[bool, ...]) -> np.ndarray:
@@ -434,7 +440,7 @@ class _StartGrid:
     def _separation(self, flat: np.ndarray) -> np.ndarray:
         n = flat.shape[0]
         k = min((2 * _WINDOW + 1) ** len(self.sizes) + 1, n)
-        dist, idx = self.tree.query(flat, k=k)
+        dist, idx = self.tree.query(flat, k=k, workers=-1)
         dist, idx = dist.reshape(n, k), idx.reshape(n, k)
         own = self.sample_cells(np.arange(n))
         other = self.sample_cells(idx.ravel()).reshape(len(self.sizes), n, k)
@@ -497,44 +503,76 @@ class _SurfaceGrid(_StartGrid):
         Lv, Av = _span_measures(model.v, np.swapaxes(X, 0, 1), per)
         spacing = _sample_spacing([Lu, Lv])
         (gu, pieces_u), (gv, pieces_v) = (
-            _grid_parameters(model.u, _span_counts(Lu, Au, spacing)),
-            _grid_parameters(model.v, _span_counts(Lv, Av, spacing)),
+            _grid_parameters(model.u, _span_costs(Lu, Au, spacing)),
+            _grid_parameters(model.v, _span_costs(Lv, Av, spacing)),
         )
         self.params, self.segments = (gu, gv), (pieces_u, pieces_v)
         self.sizes = (gu.size, gv.size)
         self.periodic = (model.u.periodic, model.v.periodic)
         UU, VV = np.meshgrid(gu, gv, indexing="ij")
         PU, PV = np.meshgrid(pieces_u, pieces_v, indexing="ij")
-        UU, VV = self._off_collapsed_edges(model, UU, VV, (PU, PV))
-        uu, vv, su, sv, ders = model.evaluate(UU.ravel(), VV.ravel(), 2, (PU.ravel(), PV.ravel()))
+        pieces = (PU.ravel(), PV.ravel())
+        uu, vv, su, sv, ders = model.evaluate(UU.ravel(), VV.ravel(), 2, pieces)
+        collapsed = self._collapsed(ders, UU.shape)
+        if any(c.any() for c in collapsed):
+            UU, VV = self._off_collapsed_edges(UU, VV, collapsed)
+            uu, vv, su, sv, ders = model.evaluate(UU.ravel(), VV.ravel(), 2, pieces)
         self.state = (uu, vv, su, sv, np.stack(ders).reshape(18, -1))
         self._finish(ders[0].T.reshape(self.sizes + (3,)), [model.u, model.v])
 
     @staticmethod
-    def _off_collapsed_edges(model: _SurfaceModel, UU: np.ndarray, VV: np.ndarray, pieces: tuple) -> tuple:
+    def _collapsed(ders: list, shape: tuple) -> tuple[np.ndarray, np.ndarray]:
+        """Samples where S_v (first) or S_u (second) vanishes: a collapsed edge in u / in v."""
+        lengths = [np.linalg.norm(a, axis=0).reshape(shape) for a in ders[1:3]]
+        return tuple(L <= 1e-9 * max(float(np.median(L)), 1e-300) for L in lengths[::-1])
+
+    @staticmethod
+    def _off_collapsed_edges(UU: np.ndarray, VV: np.ndarray, collapsed: tuple) -> tuple:
         """Samples where S_u or S_v vanishes (a cone apex, a tip collapsed to a point) are
         all one point, so the k-d tree could not tell which of them faces P: move them a
         quarter of a grid step into the surface, across the collapsed direction."""
-        ders = model.evaluate(UU.ravel(), VV.ravel(), 1, (pieces[0].ravel(), pieces[1].ravel()))[4]
-        lengths = [np.linalg.norm(a, axis=0).reshape(UU.shape) for a in ders[1:]]
         out = [UU.copy(), VV.copy()]
-        for axis, (collapsed_len, G) in enumerate(zip(lengths[::-1], (UU, VV))):
-            collapsed = collapsed_len <= 1e-9 * max(float(np.median(collapsed_len)), 1e-300)
-            if not collapsed.any():
+        for axis, (mask, G) in enumerate(zip(collapsed, (UU, VV))):
+            if not mask.any():
                 continue
             step = np.diff(G, axis=axis)
             forward = np.concatenate([step, -np.take(step, [-1], axis=axis)], axis=axis)
-            out[axis] = np.where(collapsed, G + 0.25 * forward, G)
+            out[axis] = np.where(mask, G + 0.25 * forward, G)
         return out[0], out[1]
 
     @staticmethod
     def _points(model: _SurfaceModel, pu: np.ndarray, pv: np.ndarray) -> np.ndarray:
-        UU, VV = np.meshgrid(pu, pv, indexing="ij")
-        return model.evaluate(UU.ravel(), VV.ravel(), 0)[4][0].T.reshape(pu.size, pv.size, 3)
+        """S on the tensor grid pu x pv as N_u P N_v^T (sparse collocation matrices): far
+        cheaper than point-wise evaluation, and positions do not depend on the piece."""
+        s = model.surface
+        nu, nv = s.shape
+        Nu = collocation_matrix(s.u_knots, s.u_mults, s.u_degree, s.u_periodic, nu, pu)
+        Nv = collocation_matrix(s.v_knots, s.v_mults, s.v_degree, s.v_periodic, nv, pv)
+        T = (Nu @ np.asarray(s.poles, dtype=float).reshape(nu, nv * 3)).reshape(pu.size, nv, 3)
+        X = Nv @ np.ascontiguousarray(T.transpose(1, 0, 2)).reshape(nv, pu.size * 3)
+        return np.ascontiguousarray(X.reshape(pv.size, pu.size, 3).transpose(1, 0, 2))
 
     def start(self, k: np.ndarray) -> tuple:
         uu, vv, su, sv, ders = self.state
         return uu[k], vv[k], su[k], sv[k], np.take(ders, k, axis=1).reshape(6, 3, -1)
+
+    def promise(self, P: np.ndarray, k: np.ndarray) -> np.ndarray:
+        """For points P (3, m) and samples k (m, K): the distance from P to the tangent plane
+        of each sample, its foot kept within the sample's cover. Ranks the extra Newton
+        starts: near a blunt nose a sample on the far side of the closer foot is nearer to
+        P than the samples that lead to it, so nearest-first would try the wrong ones."""
+        D = np.take(self.state[4], k.ravel(), axis=1).reshape(6, 3, *k.shape)
+        X, Su, Sv = D[0], D[1], D[2]
+        r = P[:, :, None] - X
+        guu, guv, gvv = (Su * Su).sum(0), (Su * Sv).sum(0), (Sv * Sv).sum(0)
+        gu, gv = (Su * r).sum(0), (Sv * r).sum(0)
+        det = np.maximum(guu * gvv - guv * guv, 1e-300)
+        a, b = (gvv * gu - guv * gv) / det, (guu * gv - guv * gu) / det
+        step = Su * a + Sv * b
+        length = np.sqrt((step * step).sum(0))
+        step *= np.minimum(1.0, self.cover[k] / np.maximum(length, 1e-300))
+        rest = r - step
+        return np.sqrt((rest * rest).sum(0))
 
 
 class _CurveGrid(_StartGrid):
@@ -545,7 +583,7 @@ class _CurveGrid(_StartGrid):
         p0 = _sample_parameters(model.t, np.full(model.t.n_spans, per))
         X = model.evaluate(p0, 0)[2][0].T
         L, A = _span_measures(model.t, X, per)
-        g, pieces = _grid_parameters(model.t, _span_counts(L, A, _sample_spacing([L])))
+        g, pieces = _grid_parameters(model.t, _span_costs(L, A, _sample_spacing([L])))
         self.params, self.segments = (g,), (pieces,)
         self.sizes = (g.size,)
         self.periodic = (model.t.periodic,)
@@ -556,6 +594,19 @@ class _CurveGrid(_StartGrid):
     def start(self, k: np.ndarray) -> tuple:
         tt, span, ders = self.state
         return tt[k], span[k], np.take(ders, k, axis=1).reshape(3, -1, k.size)
+
+    def promise(self, P: np.ndarray, k: np.ndarray) -> np.ndarray:
+        """The curve form of :meth:`_SurfaceGrid.promise`: distance from P to each sample's
+        tangent line, the foot kept within the sample's cover."""
+        D = np.take(self.state[2], k.ravel(), axis=1).reshape(3, -1, *k.shape)
+        X, C1 = D[0], D[1]
+        r = P[:, :, None] - X
+        a = (C1 * r).sum(0) / np.maximum((C1 * C1).sum(0), 1e-300)
+        step = C1 * a
+        length = np.sqrt((step * step).sum(0))
+        step *= np.minimum(1.0, self.cover[k] / np.maximum(length, 1e-300))
+        rest = r - step
+        return np.sqrt((rest * rest).sum(0))
 
 
 # --------------------------------------------------------------------------- Newton
@@ -1032,7 +1083,7 @@ def _global_search(grid: _StartGrid, solve, P: np.ndarray, noise: float, workers
     already found starts Newton again, up to ``_MAX_STARTS`` more times per point.
     ``solve(P, start)`` -> (params, vectors, converged, focal), ``vectors[0]`` the foot.
     """
-    _, k0 = grid.tree.query(P.T, k=1, workers=workers)
+    _, k0 = grid.tree.query(P.T, k=1, eps=0.0, workers=workers)     # a start, not an answer: approximate is enough
     k0 = np.atleast_1d(k0)
     params, vecs, conv, focal = solve(P, grid.start(k0))
     d = np.sqrt(_dot(vecs[0] - P, vecs[0] - P))
@@ -1047,19 +1098,33 @@ def _global_search(grid: _StartGrid, solve, P: np.ndarray, noise: float, workers
     reachable = np.isfinite(cand_d)
     cand_k = np.where(reachable, cand_k, 0)
     cand_cells = grid.sample_cells(cand_k)                        # (n_dirs, rows, K)
-    blocked = grid.close_any(cand_cells, cells[:, rows, None], inside[rows, None]) | (cand_k == k0[rows, None])
-    for _ in range(_MAX_STARTS):
+    # a foot blocks the samples next to it (Newton from there would find it again), except
+    # near a centre of curvature, where a second root may lie in the very next cell
+    blocks = inside & (focal >= _FOCAL)
+    # nor does it block samples on a clamped end or crease: Newton held there finds a
+    # boundary minimum that may lie right beside an interior one
+    free = ~grid.on_end([g[c] for g, c in zip(grid.params, cand_cells)])
+    blocked = (grid.close_any(cand_cells, cells[:, rows, None], blocks[rows, None]) & free) | (cand_k == k0[rows, None])
+    promise = grid.promise(P[:, rows], cand_k)
+    for attempt in range(_MAX_STARTS):
         fresh = reachable & ~blocked & (cand_d < d[rows, None] + grid.cover[cand_k])
         loc = np.flatnonzero(fresh.any(axis=1))
         if loc.size == 0:
             break
-        j = np.argmax(fresh[loc], axis=1)                         # the nearest fresh sample
+        # alternately the fresh sample with the nearest tangent plane (a second smooth minimum
+        # round a blunt nose) and the nearest fresh sample (minima on creases and corners,
+        # where tangent planes mislead)
+        if attempt % 2 == 0:
+            j = np.argmin(np.where(fresh[loc], promise[loc], np.inf), axis=1)
+        else:
+            j = np.argmax(fresh[loc], axis=1)
         k = cand_k[loc, j]
         sel = rows[loc]
-        p2, v2, c2, _ = solve(P[:, sel], grid.start(k))
+        p2, v2, c2, f2 = solve(P[:, sel], grid.start(k))
         d2 = np.sqrt(_dot(v2[0] - P[:, sel], v2[0] - P[:, sel]))
         blocked[loc, j] = True
-        blocked[loc] |= grid.close_any(cand_cells[:, loc], grid.param_cells(p2)[:, :, None], ~grid.on_end(p2)[:, None])
+        blocks2 = ~grid.on_end(p2) & (f2 >= _FOCAL)
+        blocked[loc] |= grid.close_any(cand_cells[:, loc], grid.param_cells(p2)[:, :, None], blocks2[:, None]) & free[loc]
         win = d2 < d[sel] - noise
         w = sel[win]
         for a, b in zip(params, p2):
