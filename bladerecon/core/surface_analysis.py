@@ -75,9 +75,10 @@ def curvature_from_derivatives(Su, Sv, Suu, Suv, Svv, normal_sign: float = 1.0) 
 
 def surface_curvature(surface: BSplineSurface, u, v, normal_sign: float = 1.0) -> Curvature:
     """Curvatures (1/mm) of ``surface`` at parameters (u, v) (arrays of equal length)."""
-    u, v = np.atleast_1d(np.asarray(u, float)), np.atleast_1d(np.asarray(v, float))
-    d = surface_derivatives(surface, u, v, 2)
-    return curvature_from_derivatives(d[:, 1, 0], d[:, 0, 1], d[:, 2, 0], d[:, 1, 1], d[:, 0, 2], normal_sign)
+    from .projection import surface_derivatives_fast
+
+    _, Su, Sv, Suu, Suv, Svv = surface_derivatives_fast(surface, u, v)
+    return curvature_from_derivatives(Su, Sv, Suu, Suv, Svv, normal_sign)
 
 
 def section_curvature(surface: BSplineSurface, v: float, n_points: int = 400,
