@@ -31,6 +31,9 @@ def add_parser(sub) -> None:
                    help="profile tolerance ±MM for within_tolerance_pct (default 0.03)")
     d.add_argument("--csv", metavar="FILE", help="write x,y,z,deviation,nx,ny,nz,face per point")
     d.add_argument("--report", metavar="DIR", help="write report.html with plots and deviations.csv into DIR")
+    d.add_argument("--aligned", metavar="FILE",
+                   help="with --align: write the measured input moved by the best fit: a STEP of the moved "
+                        "surface when MEASURED is a surface, else a section,x,y,z points CSV")
     d.add_argument("--json", action="store_true", help="print one JSON summary object to stdout")
     d.add_argument("--quiet", action="store_true", help="no progress messages on stderr")
 
@@ -41,7 +44,9 @@ def _say(args, msg: str) -> None:
 
 
 def _check_outputs(args) -> None:
-    for path, what in ((args.csv, "--csv"), (args.report, "--report")):
+    if args.aligned and args.align == "none":
+        raise BladeReconError("--aligned writes the best-fitted input: add --align rigid|translate|rotate-z")
+    for path, what in ((args.csv, "--csv"), (args.report, "--report"), (args.aligned, "--aligned")):
         if path:
             parent = os.path.dirname(os.path.abspath(path)) or "."
             if not os.path.isdir(parent):
@@ -86,6 +91,9 @@ def run_deviation(args: argparse.Namespace) -> dict:
     if args.csv:
         write_deviation_csv(args.csv, res.points, res.deviation)
         _say(args, f"wrote {args.csv}")
+    if args.aligned:
+        summary["aligned"] = _write_aligned(args.aligned, res, surface, section, names)
+        _say(args, f"wrote {args.aligned}")
     t_done = time.perf_counter()
     summary["seconds"] = {"read": t_read - t0, "align": res.seconds["align"], "measure": res.seconds["measure"],
                           "total": t_done - t0}
@@ -96,6 +104,23 @@ def run_deviation(args: argparse.Namespace) -> dict:
         summary["seconds"]["total"] = time.perf_counter() - t0
         _say(args, f"report in {args.report}")
     return summary
+
+
+def _write_aligned(path: str, res, surface, section, names) -> str:
+    """The measured input moved by the alignment: the surface exactly (its poles moved), or
+    the points with their section labels. Written atomically."""
+    if surface is not None:
+        from .core.alignment import transform_surface
+        from .fc.convert import make_face
+        from .fc.export import write_step
+
+        write_step(make_face(transform_surface(surface, res.alignment.matrix)), path)
+        return path
+    from .core.readers import write_points_csv
+
+    labels = section if section is not None else np.zeros(len(res.points), dtype=int)
+    write_points_csv(path, res.points, labels, names or None)
+    return path
 
 
 def _surface_points(path: str):

@@ -261,3 +261,37 @@ def test_cli_reconstructed_surface_against_the_nominal(tmp_path):
     assert r.returncode == 0, r.stderr
     s = json.loads(r.stdout)
     assert s["points"] > 10000 and 0.001 < max(s["max"], -s["min"]) < 0.006   # README: 4.3 µm
+
+
+def test_cli_aligned_surface_is_written_moved_back(tmp_path):
+    """A reconstructed surface, misplaced by 0.5° about z and 0.3 mm, best-fitted with
+    --aligned: the written STEP lies on the nominal again (OCC measures it), the input does not."""
+    from bladerecon.core.alignment import transform_surface
+    from bladerecon.fc.convert import from_part_surface, make_face
+    from bladerecon.fc.export import read_shape, write_step
+
+    step = tmp_path / "blade.step"
+    assert run("reconstruct", SAMPLE / "measured.csv", "-o", step, "--quiet").returncode == 0
+    surface = from_part_surface(read_shape(step).Faces[0].Surface)
+    M = rotation_about((0, 0, 1), 0.5, (0, 0, 0))
+    M[:3, 3] = [0.3, 0.0, 0.0]
+    moved = tmp_path / "moved.step"
+    write_step(make_face(transform_surface(surface, M)), moved)
+    before = moved.read_bytes()
+    out = tmp_path / "aligned.step"
+    r = run("deviation", moved, "--nominal", SAMPLE / "nominal.step", "--align", "rigid", "--aligned", out,
+            "--json", "--quiet")
+    assert r.returncode == 0, r.stderr
+    assert json.loads(r.stdout)["aligned"] == str(out) and moved.read_bytes() == before
+    nominal = read_shape(SAMPLE / "nominal.step")
+
+    def probe(path):       # OCC's own evaluation of the written surface on a 40 x 9 grid
+        s = read_shape(path).Faces[0].Surface
+        (u0, u1, v0, v1) = s.bounds()
+        return np.array([[*s.value(u, v)] for u in np.linspace(u0, u1, 40, endpoint=False)
+                         for v in np.linspace(v0, v1, 9)])
+
+    assert occ_distances(probe(out), nominal).max() < 0.01
+    assert occ_distances(probe(moved), nominal).max() > 0.1
+    r = run("deviation", moved, "--nominal", SAMPLE / "nominal.step", "--aligned", out)
+    assert r.returncode == 2 and "--align" in r.stderr
