@@ -122,3 +122,85 @@ def test_section_frame_x_axis_is_global_x_for_a_z_plane():
     p = sample_sections(BLADE, 2, 200, "uniform", noise=0.0, seed=1)[1]
     fr = section_frame(p, Z)
     assert np.allclose(fr.e1, [1, 0, 0], atol=1e-9) and np.allclose(fr.normal, [0, 0, 1], atol=1e-9)
+
+
+# ----------------------------------------------------------------- segment fitting with continuity
+from scipy.interpolate import BSpline  # noqa: E402
+
+from bladerecon.core.segment_fit import fit_segmented, rebuild_sections, unconstrained_segments  # noqa: E402
+from bladerecon.core.spline import full_knot_vector  # noqa: E402
+
+
+def _scipy_end_geometry(c, at_end):
+    """Point, unit tangent, curvature at one end by scipy's BSpline (not our evaluator)."""
+    U = full_knot_vector(c.knots, c.mults, c.degree, False)
+    s = BSpline(U, np.asarray(c.poles), c.degree)
+    x = c.domain[1] if at_end else c.domain[0]
+    p, d1, d2 = s(x), s.derivative(1)(x), s.derivative(2)(x)
+    k = (d1[0] * d2[1] - d1[1] * d2[0]) / np.linalg.norm(d1) ** 3
+    return p, d1 / np.linalg.norm(d1), k
+
+
+@pytest.mark.parametrize("n_points,layout,continuity", [(2000, "uniform", 2), (65, "plan", 2), (2000, "uniform", 3),
+                                                        (65, "plan", 3)])
+def test_rebuilt_joints_are_curvature_continuous(n_points, layout, continuity):
+    secs = sample_sections(BLADE, 6, n_points, layout, noise=0.002, seed=7)
+    for seg in segment_sections(secs, Z, layout == "plan"):
+        ss = fit_segmented(seg, continuity)
+        assert len(ss.joints) == 4
+        for j in ss.joints:
+            assert j["position"] < 1e-6 and j["tangent_deg"] < 1e-4 and j["curvature_rel"] < 0.01
+        for i in range(4):   # the same figures by scipy
+            pa, ta, ka = _scipy_end_geometry(ss.pieces[i], True)
+            pb, tb, kb = _scipy_end_geometry(ss.pieces[(i + 1) % 4], False)
+            assert np.linalg.norm(pa - pb) < 1e-6 and np.linalg.norm(ta - tb) < 1e-6
+            assert abs(ka - kb) < 0.01 * max(abs(ka), abs(kb))
+
+
+def test_pieces_fitted_alone_have_tangent_and_curvature_jumps():
+    secs = sample_sections(BLADE, 2, 65, "plan", noise=0.002, seed=7)
+    seg = segment_sections(secs, Z, True)[0]
+    free = unconstrained_segments(seg)
+    assert max(j["tangent_deg"] for j in free.joints) > 1.0
+    assert max(j["curvature_rel"] for j in free.joints) > 0.1
+
+
+@pytest.mark.parametrize("n_points,layout,limit", [(2000, "uniform", 0.01), (65, "plan", 0.03)])
+def test_rebuilt_sections_stay_on_the_analytic_section(n_points, layout, limit):
+    secs = sample_sections(BLADE, 6, n_points, layout, noise=0.002, seed=3)
+    rebuilt, info = rebuild_sections(secs, Z, layout == "plan")
+    for k, (r, i) in enumerate(zip(rebuilt, info)):
+        truth = BLADE.point(k / 5, np.arange(40000) / 40000)
+        assert cKDTree(truth).query(r)[0].max() < limit, k
+        assert i["joint_curvature_rel_max"] < 0.01
+
+
+def test_rotor37_sections_rebuild_with_continuous_joints():
+    ss = build_sections(read_points(DATA / "nasa_rotor37" / "rotor37_sections_xyz_mm.txt"))
+    pts = [s.points for s in ss.sections]
+    rebuilt, info = rebuild_sections(pts, ss.span_axis, True, n=6000)
+    for r, p, i in zip(rebuilt, pts, info):
+        assert i["joint_curvature_rel_max"] < 0.01 and i["joint_position_max"] < 1e-6
+        # the stream-surface offset is kept: rebuilt points are near the measured loop in 3D
+        d = cKDTree(r).query(p)[0]
+        assert np.median(d) < 0.005 and d.max() < 0.05
+
+
+def test_cli_reconstruct_segmented_feeds_the_surface(tmp_path):
+    import json
+    import os
+    import subprocess
+    import sys
+    root = Path(__file__).resolve().parents[1]
+    env = dict(os.environ, PYTHONPATH=str(root))
+    r = subprocess.run([sys.executable, "-m", "bladerecon", "reconstruct", str(root / "resources" / "sample" /
+                        "measured_plan.csv"), "--segmented", "--json", "--quiet"], capture_output=True, text=True,
+                       env=env, timeout=600)
+    assert r.returncode == 0, r.stderr
+    s = json.loads(r.stdout)
+    assert s["segmented"]["joint_curvature_rel_max"] < 0.01 and len(s["segmented"]["sections"]) == 6
+    assert s["fit"]["max"] < 0.01               # measured points on the surface
+    bad = subprocess.run([sys.executable, "-m", "bladerecon", "reconstruct", str(root / "resources" / "sample" /
+                          "measured_plan.csv"), "--segmented", "--pairing", "angle"], capture_output=True, text=True,
+                         env=env, timeout=600)
+    assert bad.returncode == 2 and "--segmented" in bad.stderr
