@@ -62,7 +62,7 @@ def plot_section(path: str, seg, params, nominal_seg=None) -> None:
                  f"t_max {params.max_thickness:.3f} mm at {params.max_thickness_pos:.2f} mm, "
                  f"r_LE {_f(params.le_radius)}, r_TE {_f(params.te_radius)} mm", fontsize=9)
     for a, centre, r, name in ((zooms[0], seg.le, params.le_radius, "LE"), (zooms[1], seg.te, params.te_radius, "TE")):
-        half = max(4 * (r or 0.5), 0.04 * params.chord)
+        half = max(5 * r, 0.008 * params.chord) if r else 0.012 * params.chord
         a.set_xlim(centre[0] - half, centre[0] + half)
         a.set_ylim(centre[1] - half, centre[1] + half)
         a.set_title(f"{name} region (points coloured by region; x = joints)", fontsize=8)
