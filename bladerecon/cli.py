@@ -50,6 +50,11 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--pairing", choices=("anchored", "angle"), default="anchored",
                    help="corresponding points between sections: LE/TE-anchored common parameter "
                         "(default) or the angle pairing of seed 000 Fig. 5 (interpolates the paired points)")
+    r.add_argument("--segmented", action="store_true",
+                   help="rebuild every section from LE/TE/suction/pressure segments with curvature-continuous "
+                        "joints (seed 000 §2.2) and build the surface through the rebuilt sections")
+    r.add_argument("--continuity", type=int, choices=(2, 3), default=2,
+                   help="with --segmented: C2 (default) or C3 at the LE/TE joints")
     r.add_argument("--solid", action="store_true", help="close hub and tip with planar caps; write a solid")
     r.add_argument("--quiet", action="store_true", help="no progress messages on stderr")
     from .deviation_cli import add_parser as add_deviation_parser
@@ -64,7 +69,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 # Further subcommands live in their own modules, each with ``add_parser(sub)`` that calls
 # ``set_defaults(run=function_returning_summary_dict)``; main() prints the summary with --json.
-SUBCOMMAND_MODULES: tuple[str, ...] = ()
+SUBCOMMAND_MODULES: tuple[str, ...] = (".sections_cli", ".plan_cli")
 
 
 def _stats(d: np.ndarray, signed: bool | None = None) -> dict:
@@ -103,13 +108,24 @@ def run_reconstruct(args: argparse.Namespace) -> dict:
     pts = [s.points for s in sections.sections]
     say("fitting section curves and surface")
     measured_start = not sections.sections[0].reordered
-    if args.pairing == "angle":
+    seg_info = None
+    if getattr(args, "segmented", False):
+        if args.pairing == "angle" or args.method != "auto":
+            raise BladeReconError("--segmented builds its own section curves: use it without --pairing angle and --method")
+        from .core.segment_fit import rebuild_sections
+        rebuilt, seg_info = rebuild_sections(pts, sections.span_axis, measured_start, args.continuity)
+        # the rebuilt sections are sampled densely without noise: the surface interpolates them
+        rec = reconstruct(rebuilt, sections.span_axis, method="interpolate", first_point_is_measured=True)
+    elif args.pairing == "angle":
         rec = reconstruct_paired(pts, sections.span_axis, first_point_is_measured=measured_start)
     else:
         rec = reconstruct(pts, sections.span_axis, method=args.method, tolerance=args.tolerance,
                           first_point_is_measured=measured_start)
     measured = np.concatenate(pts)
-    proj = project_points_to_surface(rec.surface, measured, rec.point_u, rec.point_v)
+    if seg_info is None:
+        proj = project_points_to_surface(rec.surface, measured, rec.point_u, rec.point_v)
+    else:  # the surface parameters belong to the rebuilt sections' samples: search globally
+        proj = project_points_to_surface(rec.surface, measured)
     t_fit = time.perf_counter()
     surf = rec.surface
     say(f"surface {surf.shape[0]} x {surf.shape[1]} poles ({rec.choice.method}); "
@@ -125,6 +141,9 @@ def run_reconstruct(args: argparse.Namespace) -> dict:
                     "tolerance_mm": rec.tolerance, "refit_error_mm": rec.refit_error},
         "fit": _stats(proj.distance),
     }
+    if seg_info is not None:
+        summary["segmented"] = {"continuity": args.continuity, "sections": seg_info,
+                                "joint_curvature_rel_max": max(i["joint_curvature_rel_max"] for i in seg_info)}
     if getattr(rec, "added_points", None) is not None:
         summary["surface"]["pairing_added_points"] = int(rec.added_points)
 

@@ -1,0 +1,139 @@
+"""Measurement plan from a dense nominal section: "less measured points" (seed 000 §2.1).
+
+For every dense nominal section (a closed loop of points, e.g. a STEP nominal cut by a plane
+and discretised at 0.1 mm, the paper's measurement step):
+
+1. start with 8 points equally spaced in arc length (from the LE curvature peak) plus the 2
+   curvature extrema of the section (LE and TE region, :mod:`segmentation`);
+2. interpolate them with a periodic cubic B-spline (centripetal, seed 000 eqs. 7, 9);
+3. measure the Hausdorff distance between that curve and the dense section: nominal →
+   curve (each nominal point projected on the curve, Newton from its arc-length position)
+   and curve → nominal (dense curve samples to the nominal polyline's segments);
+4. add the nominal point where the distance is largest; repeat 2-4 until the Hausdorff
+   distance is within the compression tolerance (0.05 mm default, as in the paper).
+
+Compression rate = 1 − kept / dense points. Units mm.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from .bspline import closed_parameters, evaluate_curve
+from .errors import BladeReconError
+from .fitting import interpolate_closed_curve
+from .section_curves import refine_curve_parameters
+from .segmentation import section_frame, segment_section
+
+__all__ = ["SectionPlan", "plan_section", "plan_sections", "hausdorff_to_polyline", "DEFAULT_TOLERANCE"]
+
+DEFAULT_TOLERANCE = 0.05
+N_EQUAL = 8
+
+
+@dataclass(frozen=True)
+class SectionPlan:
+    index: int
+    indices: np.ndarray        # kept points: indices into the dense section, in loop order
+    points: np.ndarray         # (k, 3) mm
+    dense_points: int
+    hausdorff: float           # achieved max distance between the plan's cubic and the section (mm)
+    iterations: int
+    extrema: tuple[int, int]   # dense indices of the LE and TE curvature maxima
+
+    @property
+    def compression(self) -> float:
+        return 1.0 - len(self.indices) / self.dense_points
+
+
+def _segment_distance(points: np.ndarray, poly: np.ndarray, tree: cKDTree) -> np.ndarray:
+    """Distance of points to a closed polyline: the two segments at the nearest vertex."""
+    n = len(poly)
+    _, i = tree.query(points)
+    best = np.full(len(points), np.inf)
+    for j0, j1 in ((i - 1) % n, i), (i, (i + 1) % n):
+        a, b = poly[j0], poly[j1]
+        ab = b - a
+        s = np.clip(((points - a) * ab).sum(axis=1) / np.maximum((ab * ab).sum(axis=1), 1e-300), 0.0, 1.0)
+        best = np.minimum(best, np.linalg.norm(points - (a + s[:, None] * ab), axis=1))
+    return best
+
+
+def hausdorff_to_polyline(curve, poly: np.ndarray, t_poly: np.ndarray, samples_per_point: int = 4
+                          ) -> tuple[float, int, float, np.ndarray]:
+    """Two-sided Hausdorff distance between a closed curve and a closed dense polyline.
+
+    ``t_poly``: start parameters of the polyline points on the curve. Returns
+    (hausdorff, index of the farthest polyline point, curve→polyline max, refined t).
+    """
+    t = refine_curve_parameters(curve, poly, t_poly, iterations=4)
+    d_nom = np.linalg.norm(evaluate_curve(curve, t) - poly, axis=1)
+    lo, hi = curve.domain
+    ts = lo + (hi - lo) * np.arange(samples_per_point * len(poly)) / (samples_per_point * len(poly))
+    cs = evaluate_curve(curve, ts)
+    tree = cKDTree(poly)
+    d_cur = _segment_distance(cs, poly, tree)
+    k = int(np.argmax(d_nom))
+    far_curve = float(d_cur.max())
+    worst = k
+    if far_curve > d_nom[k]:
+        worst = int(tree.query(cs[int(np.argmax(d_cur))])[1])
+    return max(float(d_nom[k]), far_curve), worst, far_curve, t
+
+
+def plan_section(dense: np.ndarray, index: int = 0, tolerance: float = DEFAULT_TOLERANCE,
+                 span_axis: np.ndarray | None = None, max_points: int | None = None) -> SectionPlan:
+    """The seed 000 §2.1 plan of one dense closed section (n, 3) mm; see the module docstring."""
+    P = np.asarray(dense, float)
+    n = len(P)
+    if n < 20:
+        raise BladeReconError(f"section {index}: the nominal section has {n} points; a plan needs a dense "
+                              "section (hundreds of points): use a smaller step")
+    if not tolerance > 0:
+        raise BladeReconError(f"--tolerance {tolerance}: give a positive distance in mm")
+    seg = segment_section(P, index, span_axis, method="interpolate")
+    # dense indices of the two curvature extrema: the nominal points nearest the peaks
+    peaks = evaluate_curve(seg.curve, np.array([seg.t_le_peak, seg.t_te_peak]))
+    q = seg.frame.to_plane(P)
+    i_le = int(np.argmin(np.linalg.norm(q - peaks[0], axis=1)))
+    i_te = int(np.argmin(np.linalg.norm(q - peaks[1], axis=1)))
+    seglen = np.linalg.norm(np.roll(P, -1, axis=0) - P, axis=1)
+    arc = np.concatenate([[0.0], np.cumsum(seglen)])      # arc[i] at point i, arc[n] = perimeter
+    per = arc[-1]
+    start = arc[i_le]
+    targets = np.mod(start + per * np.arange(N_EQUAL) / N_EQUAL, per)
+    equal = np.searchsorted(arc[:-1], targets)
+    equal = np.clip(equal, 0, n - 1)
+    keep = np.unique(np.concatenate([equal, [i_le, i_te]]))
+    max_points = max_points or n
+    # arc-length position of every dense point, to start its projection on the plan curve
+    it = 0
+    while True:
+        it += 1
+        pts = P[keep]
+        u = closed_parameters(pts, "centripetal")
+        curve = interpolate_closed_curve(pts, 3, params=u)
+        # start parameters: linear in arc length between consecutive kept points
+        a_keep = arc[keep]
+        a_ext = np.concatenate([a_keep, [a_keep[0] + per]])
+        u_ext = np.concatenate([u, [1.0]])
+        a_all = arc[:-1].copy()
+        a_all[a_all < a_keep[0]] += per
+        t0 = np.mod(np.interp(a_all, a_ext, u_ext), 1.0)
+        h, worst, _, _ = hausdorff_to_polyline(curve, P, t0)
+        if h <= tolerance or len(keep) >= max_points:
+            break
+        if worst in keep:     # the far spot is at a kept point: take its neighbour with the larger gap
+            worst = (worst + 1) % n
+            if worst in keep:
+                break
+        keep = np.sort(np.append(keep, worst))
+    return SectionPlan(index, keep, P[keep], n, float(h), it, (i_le, i_te))
+
+
+def plan_sections(sections: list[np.ndarray], tolerance: float = DEFAULT_TOLERANCE,
+                  span_axis: np.ndarray | None = None) -> list[SectionPlan]:
+    """Plans of several dense sections (one per section, hub to tip)."""
+    return [plan_section(p, k, tolerance, span_axis) for k, p in enumerate(sections)]

@@ -1,0 +1,188 @@
+"""Section parameters against analytic sections with known answers and against the NASA tables."""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from bladerecon.core.errors import BladeReconError
+from bladerecon.core.readers import read_points
+from bladerecon.core.sample_blade import SampleBlade, sample_sections
+from bladerecon.core.section_parameters import fit_circle, measure_section, segment_sections
+from bladerecon.core.sections import build_sections
+
+ROOT = Path(__file__).resolve().parents[1]
+DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
+R37 = DATA / "nasa_rotor37" / "rotor37_sections_xyz_mm.txt"
+R67 = DATA / "nasa_rotor67" / "rotor67_sections_xyz_mm.txt"
+
+BLADES = {
+    "default": SampleBlade(),
+    # thin, small edges, negative stagger: another corner of the family
+    "thin": SampleBlade(thickness_hub=0.05, thickness_tip=0.035, le_radius_hub=0.45, le_radius_tip=0.35,
+                        te_radius_hub=0.3, te_radius_tip=0.25, stagger_hub=-20.0, twist=15.0, camber_hub=30.0,
+                        camber_tip=20.0),
+}
+
+
+def _truth(blade: SampleBlade, h: float) -> dict:
+    laws = blade.section_laws(h)
+    le, te = blade.le_te(h)
+    u = (te - le) / np.linalg.norm(te - le)
+    return {"chord": float(laws.chord), "max_thickness": float(laws.max_thickness),
+            "le_radius": float(laws.le_radius), "te_radius": float(laws.te_radius),
+            "stagger": float(laws.stagger), "le": le, "te": te,
+            "tmax_pos": float((blade.camber_point(h, blade.tmax_position) - le) @ u),
+            "inlet": float(laws.stagger + laws.camber / 2), "outlet": float(laws.stagger - laws.camber / 2)}
+
+
+def _measure(blade, n_points, layout, seed, strict=True):
+    secs = sample_sections(blade, 6, n_points, layout, noise=0.002, seed=seed)
+    segs = segment_sections(secs, np.array([0.0, 0.0, 1.0]), first_point_is_measured=(layout == "plan"))
+    return [measure_section(s, (2.0,), strict_radius=strict) for s in segs]
+
+
+@pytest.mark.parametrize("name", sorted(BLADES))
+def test_dense_noisy_sections_give_the_known_parameters(name):
+    """2000 points, 2 µm noise: chord 0.02 mm, t_max 5 µm, radii 5 %, stagger 0.05°."""
+    blade = BLADES[name]
+    for k, m in enumerate(_measure(blade, 2000, "uniform", seed=11)):
+        tr = _truth(blade, k / 5)
+        assert abs(m.chord - tr["chord"]) < 0.02
+        assert abs(m.max_thickness - tr["max_thickness"]) < 0.005
+        assert abs(m.le_radius / tr["le_radius"] - 1) < 0.05
+        assert abs(m.te_radius / tr["te_radius"] - 1) < 0.05
+        assert abs(m.stagger_deg - tr["stagger"]) < 0.05
+        assert np.linalg.norm(m.le - tr["le"]) < 0.03 and np.linalg.norm(m.te - tr["te"]) < 0.03
+        assert abs(m.max_thickness_pos - tr["tmax_pos"]) < 0.5      # flat maximum: position is soft
+        assert abs(m.inlet_angle_deg - tr["inlet"]) < 0.3
+        assert abs(m.outlet_angle_deg - tr["outlet"]) < 0.3
+        # thickness 2 mm behind the LE: the inscribed circle there, against the analytic disk
+        assert m.thickness_at["le+2"] is not None
+
+
+@pytest.mark.parametrize("name", sorted(BLADES))
+def test_sparse_plan_sections_give_chord_thickness_stagger(name):
+    """~65 points (the measurement plan), 2 µm noise: chord 0.02 mm and stagger 0.05° on every section.
+
+    The max thickness through 65 noisy points is noise-limited: the interpolant passes through
+    the points, so t_max carries the normal noise of both sides (σ ≈ 2.8 µm). Over 4 noise
+    draws x 6 sections at least 90 % must be within 5 µm and none beyond 8 µm (≈ 3σ).
+    """
+    blade = BLADES[name]
+    errs = []
+    for seed in range(4):
+        for k, m in enumerate(_measure(blade, 65, "plan", seed=seed, strict=False)):
+            tr = _truth(blade, k / 5)
+            assert abs(m.chord - tr["chord"]) < 0.02
+            assert abs(m.stagger_deg - tr["stagger"]) < 0.05
+            errs.append(abs(m.max_thickness - tr["max_thickness"]))
+    errs = np.array(errs)
+    assert np.mean(errs < 0.005) >= 0.9 and errs.max() < 0.008
+
+
+def test_thickness_at_offset_matches_the_disk_of_the_analytic_section():
+    blade = SampleBlade()
+    secs = sample_sections(blade, 6, 2000, "uniform", noise=0.0, seed=2)
+    seg = segment_sections(secs, np.array([0.0, 0.0, 1.0]), False)[2]
+    m = measure_section(seg, (5.0,))
+    # the analytic disk whose centre is 5 mm along the chord from the LE
+    h = 0.4
+    le, te = blade.le_te(h)
+    u = (te - le) / np.linalg.norm(te - le)
+    xi = np.linspace(0, 1, 20001)
+    x = (blade.camber_point(h, xi) - le) @ u
+    want = 2 * blade.half_thickness(h, xi[np.argmin(np.abs(x - 5.0))])
+    assert abs(m.thickness_at["le+5"] - want) < 0.003
+
+
+def test_circle_fit_is_exact_on_a_circle_arc():
+    a = np.linspace(0.3, 2.5, 9)
+    c, r, rms = fit_circle(np.column_stack([3 + 0.7 * np.cos(a), -1 + 0.7 * np.sin(a)]))
+    assert np.allclose(c, [3, -1], atol=1e-10) and abs(r - 0.7) < 1e-10 and rms < 1e-10
+
+
+def test_too_few_edge_points_is_refused_with_section_edge_and_counts():
+    blade = SampleBlade()
+    # a plan with 30 points: only 2-3 on each edge circle
+    secs = sample_sections(blade, 2, 30, "plan", noise=0.0, seed=0)
+    seg = segment_sections(secs, np.array([0.0, 0.0, 1.0]), True)[1]
+    with pytest.raises(BladeReconError, match=r"section 1: the (leading|trailing) edge region has \d measured points, "
+                                              r"a radius fit needs at least 5"):
+        measure_section(seg)
+    lenient = measure_section(seg, strict_radius=False)
+    assert lenient.warnings and (lenient.le_radius is None or lenient.te_radius is None)
+
+
+def _nasa_sections(path):
+    ss = build_sections(read_points(path))
+    return [s.points for s in ss.sections], ss.span_axis
+
+
+@pytest.mark.parametrize("path,n_sections", [(R37, 13), (R67, 14)])
+def test_nasa_rotor_parameter_table(path, n_sections):
+    """Every section gets a table row; LE/TE agree with the table's own LE/TE points (J=1 and the last J)."""
+    pts, axis = _nasa_sections(path)
+    assert len(pts) == n_sections
+    segs = segment_sections(pts, axis, True)
+    rows = [measure_section(s, strict_radius=False) for s in segs]
+    raw = read_points(path)
+    for k, (m, p) in enumerate(zip(rows, pts)):
+        file_pts = raw.section_points(k)
+        le_file = file_pts[0]
+        # the table's TE is the point farthest from its LE
+        te_file = file_pts[np.argmax(np.linalg.norm(file_pts - le_file, axis=1))]
+        assert np.linalg.norm(m.le - le_file) < 1.0, k
+        assert np.linalg.norm(m.te - te_file) < 1.0, k
+        assert abs(m.chord / np.linalg.norm(te_file - le_file) - 1) < 0.01, k
+        assert 0.01 * m.chord < m.max_thickness < 0.12 * m.chord, k
+        assert 0.1 < m.max_thickness_pos_frac < 0.9, k
+    t = np.array([m.max_thickness for m in rows])
+    assert t[0] > t[len(t) // 2] > t[-3]          # thick at the hub, thin at the tip
+
+
+def _cli(*args):
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    return subprocess.run([sys.executable, "-m", "bladerecon", *map(str, args)], capture_output=True, text=True,
+                          env=env, timeout=600)
+
+
+def test_cli_sections_json_keys_and_plots(tmp_path):
+    r = _cli("sections", ROOT / "resources" / "sample" / "measured.csv", "--plots", tmp_path / "plots", "--json",
+             "--quiet")
+    assert r.returncode == 0, r.stderr
+    rows = json.loads(r.stdout)
+    assert len(rows) == 6
+    for key in ("index", "points", "le", "te", "chord", "stagger_deg", "max_thickness", "max_thickness_pos",
+                "le_radius", "te_radius", "inlet_angle_deg", "outlet_angle_deg"):
+        assert key in rows[0]
+    tr = _truth(SampleBlade(), 0.0)
+    assert abs(rows[0]["chord"] - tr["chord"]) < 0.02 and rows[0]["points"] == 2000
+    assert len(list((tmp_path / "plots").glob("section_*.png"))) == 6
+
+
+def test_cli_sections_with_step_nominal_gives_small_differences():
+    r = _cli("sections", ROOT / "resources" / "sample" / "measured.csv", "--nominal",
+             ROOT / "resources" / "sample" / "nominal.step", "--json", "--quiet")
+    assert r.returncode == 0, r.stderr
+    rows = json.loads(r.stdout)
+    for row in rows:
+        d = row["difference"]
+        assert abs(d["chord"]) < 0.02 and abs(d["max_thickness"]) < 0.005 and abs(d["stagger_deg"]) < 0.05
+        assert abs(d["le_radius"]) < 0.05 * row["nominal"]["le_radius"]
+        assert row["nominal"]["points"] > 900          # the nominal cut is dense
+
+
+def test_cli_too_few_edge_points_exits_2_with_the_message(tmp_path):
+    secs = sample_sections(SampleBlade(), 2, 30, "plan", noise=0.0, seed=0)
+    f = tmp_path / "sparse.csv"
+    lines = ["section,x,y,z"] + [f"{k},{x},{y},{z}" for k, p in enumerate(secs) for x, y, z in p]
+    f.write_text("\n".join(lines) + "\n")
+    r = _cli("sections", f, "--json")
+    assert r.returncode == 2
+    assert "bladerecon: error: section 0: the" in r.stderr and "needs at least 5" in r.stderr
