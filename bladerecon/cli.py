@@ -64,7 +64,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 # Further subcommands live in their own modules, each with ``add_parser(sub)`` that calls
 # ``set_defaults(run=function_returning_summary_dict)``; main() prints the summary with --json.
-SUBCOMMAND_MODULES: tuple[str, ...] = ()
+SUBCOMMAND_MODULES: tuple[str, ...] = (".tspline_cli",)
 
 
 def _stats(d: np.ndarray, signed: bool | None = None) -> dict:

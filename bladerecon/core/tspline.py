@@ -46,7 +46,8 @@ __all__ = [
     "TMesh", "TSplineFit", "FitLimits", "bspline_basis_1d", "gaussian_curvature",
     "feature_mask", "initial_mesh", "make_analysis_suitable", "fit_tspline", "evaluate",
     "basis_matrix", "bezier_patches", "BezierPatch", "tensor_mesh", "duplicate_parameters",
-    "normalise_parameters",
+    "normalise_parameters", "zmap_patches", "evaluate_patches", "partition_of_unity",
+    "is_analysis_suitable", "t_junctions", "crossings", "local_knots",
 ]
 
 _INF = np.inf
@@ -605,8 +606,9 @@ def fit_tspline(uv: np.ndarray, values: np.ndarray, eps: float, n_data: int | No
 
     ``uv`` (m, 2) in [0,1]²; ``values`` (m, d); ``xyz`` (m, 3) the point positions used for
     the curvature features (default: ``values`` when d == 3). ``n_data``/``n_feature``: N_d,
-    N_f of §2.2.2 (seed 002 does not state its values; defaults m/16 and m/80: at most 16
-    cells' worth of points and an eighth of the 10 % feature points per cell). ``local=False`` re-solves all poles each step.
+    N_f of §2.2.2 (seed 002 does not state its values; defaults m/16 and m/80: no cell
+    holds more than 1/16 of the points or 1/8 of the feature points).
+    ``local=False`` re-solves all poles each step.
     Stops at max error <= eps, or at a :class:`FitLimits` limit with ``converged=False``
     and the reason and the error reached.
     """
@@ -768,6 +770,20 @@ def bezier_patches(fit: TSplineFit) -> list[BezierPatch]:
         poles = np.einsum("ri,rj,rd->ijd", cu, cv, P[act])
         patches.append(BezierPatch((a, b, c, d), poles, k))
     return patches
+
+
+def zmap_patches(patches: list[BezierPatch], origin: np.ndarray, scale: np.ndarray) -> list[BezierPatch]:
+    """3D control points of z-map patches: x, y are affine in (u, v) (x = origin + scale u),
+    so their Bernstein coefficients are the box's thirds; z is the fitted value."""
+    out = []
+    third = np.arange(4) / 3.0
+    for p in patches:
+        a, b, c, d = p.box
+        x = origin[0] + scale[0] * (a + (b - a) * third)
+        y = origin[1] + scale[1] * (c + (d - c) * third)
+        X, Y = np.meshgrid(x, y, indexing="ij")
+        out.append(BezierPatch(p.box, np.stack([X, Y, p.poles[..., 0]], axis=-1), p.face))
+    return out
 
 
 def evaluate_patches(patches: list[BezierPatch], uv: np.ndarray) -> np.ndarray:
