@@ -146,13 +146,93 @@ def _ray_knots(pos: np.ndarray, across: np.ndarray, seg: np.ndarray) -> np.ndarr
     return knots
 
 
-def local_knots(mesh: TMesh, nodes: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+class _Topology:
+    """The mesh on its fine grid: all distinct u lines U, v lines V; which grid points are
+    vertices; which unit intervals of each line are covered by edges. Ray casting and edge
+    tests become index look-ups (cost O(len(U) len(V)), no per-node loop)."""
+
+    def __init__(self, faces: np.ndarray) -> None:
+        U = np.unique(faces[:, :2])
+        V = np.unique(faces[:, 2:])
+        nu, nv = len(U), len(V)
+        iu0, iu1 = np.searchsorted(U, faces[:, 0]), np.searchsorted(U, faces[:, 1])
+        iv0, iv1 = np.searchsorted(V, faces[:, 2]), np.searchsorted(V, faces[:, 3])
+        vert = np.zeros((nu, nv), int)       # vert[i, j]: edge on u = U[i] over (V[j], V[j+1])
+        for col in (iu0, iu1):
+            np.add.at(vert, (col, iv0), 1)
+            np.add.at(vert, (col, iv1), -1)
+        self.vert = np.cumsum(vert, axis=1)[:, :-1] > 0
+        horiz = np.zeros((nu, nv), int)      # horiz[i, j]: edge on v = V[j] over (U[i], U[i+1])
+        for row in (iv0, iv1):
+            np.add.at(horiz, (iu0, row), 1)
+            np.add.at(horiz, (iu1, row), -1)
+        self.horiz = np.cumsum(horiz, axis=0)[:-1, :] > 0
+        vertex = np.zeros((nu, nv), bool)
+        for a, b in ((iu0, iv0), (iu1, iv0), (iu0, iv1), (iu1, iv1)):
+            vertex[a, b] = True
+        self.U, self.V, self.vertex = U, V, vertex
+        jj, ii = np.nonzero(vertex.T)        # nodes sorted by v, then u
+        self.i, self.j = ii, jj
+
+    def nodes(self) -> np.ndarray:
+        return np.column_stack([self.U[self.i], self.V[self.j]])
+
+    def has_edges(self) -> np.ndarray:
+        """(n, 4) bool: node has an edge towards +u, -u, +v, -v."""
+        i, j = self.i, self.j
+        nu, nv = len(self.U), len(self.V)
+        out = np.zeros((len(i), 4), bool)
+        out[:, 0] = np.where(i < nu - 1, self.horiz[np.minimum(i, nu - 2), j], False)
+        out[:, 1] = np.where(i > 0, self.horiz[np.maximum(i - 1, 0), j], False)
+        out[:, 2] = np.where(j < nv - 1, self.vert[i, np.minimum(j, nv - 2)], False)
+        out[:, 3] = np.where(j > 0, self.vert[i, np.maximum(j - 1, 0)], False)
+        return out
+
+    @staticmethod
+    def _hits(cover: np.ndarray) -> np.ndarray:
+        """A ray along a grid line at position j meets line i where an edge of line i
+        covers the point j (closed intervals: the interval below or above it)."""
+        hit = np.zeros((cover.shape[0], cover.shape[1] + 1), bool)
+        hit[:, :-1] |= cover
+        hit[:, 1:] |= cover
+        return hit
+
+    @staticmethod
+    def _knots(hit: np.ndarray, lines: np.ndarray, i: np.ndarray, j: np.ndarray) -> np.ndarray:
+        """Two nearest hit lines either side of index i along axis 0 at row j; repeated at
+        the mesh boundary (seed 002 §1.1)."""
+        n = hit.shape[0]
+        ar = np.arange(n)[:, None]
+        fwd_idx = np.where(hit, ar, n)
+        nxt = np.full(hit.shape, n)
+        nxt[:-1] = np.minimum.accumulate(fwd_idx[::-1], axis=0)[::-1][1:]      # first hit > i
+        bwd_idx = np.where(hit, ar, -1)
+        prv = np.full(hit.shape, -1)
+        prv[1:] = np.maximum.accumulate(bwd_idx, axis=0)[:-1]                  # last hit < i
+        k3 = nxt[i, j]
+        k4 = np.where(k3 < n, nxt[np.minimum(k3, n - 1), j], n)
+        k1 = prv[i, j]
+        k0 = np.where(k1 >= 0, prv[np.maximum(k1, 0), j], -1)
+        k3 = np.where(k3 < n, k3, i)
+        k4 = np.where(k4 < n, k4, k3)
+        k1 = np.where(k1 >= 0, k1, i)
+        k0 = np.where(k0 >= 0, k0, k1)
+        return lines[np.column_stack([k0, k1, i, k3, k4])]
+
+    def knots(self, i: np.ndarray | None = None, j: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Local knot vectors (n, 5) in u and v by ray casting (seed 002 §1.1)."""
+        i = self.i if i is None else i
+        j = self.j if j is None else j
+        ku = self._knots(self._hits(self.vert), self.U, i, j)
+        kv = self._knots(self._hits(self.horiz.T), self.V, j, i)
+        return ku, kv
+
+
+def local_knots(mesh: TMesh) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Nodes (n, 2) and their local knot vectors (n, 5) in u and in v (seed 002 eq. 3)."""
-    if nodes is None:
-        nodes = mesh.nodes()
-    ku = _ray_knots(nodes[:, 0], nodes[:, 1], mesh.vertical_segments())
-    kv = _ray_knots(nodes[:, 1], nodes[:, 0], mesh.horizontal_segments())
-    return nodes, ku, kv
+    topo = _Topology(mesh.faces)
+    ku, kv = topo.knots()
+    return topo.nodes(), ku, kv
 
 
 @dataclass(frozen=True)
@@ -178,29 +258,23 @@ def t_junctions(mesh: TMesh) -> TJunctions:
     A T-junction missing its +u edge extends over [u_i1, u_i4] (two knot intervals on the
     missing side, one on the other); missing -u: [u_i0, u_i3]; likewise in v.
     """
-    nodes = mesh.nodes()
-    vseg, hseg = mesh.vertical_segments(), mesh.horizontal_segments()
-    has = _edge_presence(nodes, vseg, hseg)
-    lo, hi = mesh.lo, mesh.hi
-    inner = (nodes[:, 0] > lo) & (nodes[:, 0] < hi) & (nodes[:, 1] > lo) & (nodes[:, 1] < hi)
+    topo = _Topology(mesh.faces)
+    has = topo.has_edges()
+    nu, nv = len(topo.U), len(topo.V)
+    inner = (topo.i > 0) & (topo.i < nu - 1) & (topo.j > 0) & (topo.j < nv - 1)
     tj = inner & (has.sum(axis=1) == 3)
-    nodes_t = nodes[tj]
+    ku, kv = topo.knots(topo.i[tj], topo.j[tj])
+    nodes_t = np.column_stack([topo.U[topo.i[tj]], topo.V[topo.j[tj]]])
     missing = np.argmin(has[tj], axis=1)
     ext = np.empty((len(nodes_t), 3))
     hor = missing <= 1
-    if hor.any():
-        ku = _ray_knots(nodes_t[hor, 0], nodes_t[hor, 1], vseg)
-        plus = missing[hor] == 0
-        ext[hor, 0] = nodes_t[hor, 1]
-        ext[hor, 1] = np.where(plus, ku[:, 1], ku[:, 0])
-        ext[hor, 2] = np.where(plus, ku[:, 4], ku[:, 3])
-    ver = ~hor
-    if ver.any():
-        kv = _ray_knots(nodes_t[ver, 1], nodes_t[ver, 0], hseg)
-        plus = missing[ver] == 2
-        ext[ver, 0] = nodes_t[ver, 0]
-        ext[ver, 1] = np.where(plus, kv[:, 1], kv[:, 0])
-        ext[ver, 2] = np.where(plus, kv[:, 4], kv[:, 3])
+    ext[:, 0] = np.where(hor, nodes_t[:, 1], nodes_t[:, 0])
+    lo_h = np.where(missing == 0, ku[:, 1], ku[:, 0])
+    hi_h = np.where(missing == 0, ku[:, 4], ku[:, 3])
+    lo_v = np.where(missing == 2, kv[:, 1], kv[:, 0])
+    hi_v = np.where(missing == 2, kv[:, 4], kv[:, 3])
+    ext[:, 1] = np.where(hor, lo_h, lo_v)
+    ext[:, 2] = np.where(hor, hi_h, hi_v)
     return TJunctions(nodes_t, missing, ext)
 
 
@@ -763,8 +837,9 @@ def bezier_patches(fit: TSplineFit) -> list[BezierPatch]:
         act = np.flatnonzero((ku[:, 0] < b) & (ku[:, 4] > a) & (kv[:, 0] < d) & (kv[:, 4] > c))
         su = a + (b - a) * _BERN_T
         sv = c + (d - c) * _BERN_T
-        nu = np.stack([bspline_basis_1d(ku[i], su) for i in act])   # (r, 4) values
-        nv = np.stack([bspline_basis_1d(kv[i], sv) for i in act])
+        r = len(act)
+        nu = bspline_basis_1d(np.repeat(ku[act], 4, axis=0), np.tile(su, r)).reshape(r, 4)
+        nv = bspline_basis_1d(np.repeat(kv[act], 4, axis=0), np.tile(sv, r)).reshape(r, 4)
         cu = nu @ _BERN_INV.T                                        # Bernstein coefficients
         cv = nv @ _BERN_INV.T
         poles = np.einsum("ri,rj,rd->ijd", cu, cv, P[act])
