@@ -267,3 +267,14 @@ def test_cli_blade_uses_sections(tmp_path, capsys):
     summary = json.loads(capsys.readouterr().out)
     assert summary["parameterisation"].startswith("blade") and summary["converged"]
     assert summary["max"] <= 0.05
+
+
+def test_tensor_least_squares_equals_scipy():
+    """The tensor-product NURBS peer of the benchmark (uniform knots) against scipy."""
+    rng = np.random.default_rng(5)
+    uv = rng.random((4000, 2))
+    z = np.exp(-3 * ((uv[:, 0] - 0.4) ** 2 + (uv[:, 1] - 0.6) ** 2))
+    P, err = ts.tensor_least_squares(uv, z, 9, 7)
+    ref = LSQBivariateSpline(uv[:, 0], uv[:, 1], z, np.linspace(0, 1, 7)[1:-1], np.linspace(0, 1, 5)[1:-1],
+                             bbox=[0, 1, 0, 1])
+    np.testing.assert_allclose(err, np.abs(ref.ev(uv[:, 0], uv[:, 1]) - z), atol=1e-8)

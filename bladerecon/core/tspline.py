@@ -47,7 +47,7 @@ __all__ = [
     "feature_mask", "initial_mesh", "make_analysis_suitable", "fit_tspline", "evaluate",
     "basis_matrix", "bezier_patches", "BezierPatch", "tensor_mesh", "duplicate_parameters",
     "normalise_parameters", "zmap_patches", "evaluate_patches", "partition_of_unity",
-    "is_analysis_suitable", "t_junctions", "crossings", "local_knots",
+    "is_analysis_suitable", "t_junctions", "crossings", "local_knots", "tensor_least_squares",
 ]
 
 _INF = np.inf
@@ -315,13 +315,34 @@ def _split(faces: np.ndarray, idx: np.ndarray, axis: np.ndarray, at: np.ndarray)
     return np.concatenate([faces[keep], a, b])
 
 
-def split_longer_side(faces: np.ndarray, idx: np.ndarray) -> np.ndarray:
-    """Split faces ``idx`` across their longer side at the midpoint (seed 002 §2.2.2)."""
+def split_longer_side(faces: np.ndarray, idx: np.ndarray, uv: np.ndarray | None = None,
+                      loc: np.ndarray | None = None) -> np.ndarray:
+    """Split faces ``idx`` across their longer side at the midpoint (seed 002 §2.2.2).
+
+    With the points ``uv`` and the face ``loc`` holding each, a split that would leave one
+    half without any point is made across the other side instead, when that one leaves
+    points on both halves (our addition: sections measured on a few span lines otherwise
+    get cut between the lines, where no point can fix the new poles).
+    """
+    idx = np.asarray(idx, int)
     f = faces[idx]
     du, dv = f[:, 1] - f[:, 0], f[:, 3] - f[:, 2]
+    mid_u, mid_v = 0.5 * (f[:, 0] + f[:, 1]), 0.5 * (f[:, 2] + f[:, 3])
     axis = np.where(du >= dv, 0, 1)
-    at = np.where(axis == 0, 0.5 * (f[:, 0] + f[:, 1]), 0.5 * (f[:, 2] + f[:, 3]))
-    return _split(faces, np.asarray(idx, int), axis, at)
+    if uv is not None and loc is not None and len(idx):
+        pos = np.full(len(faces), -1)
+        pos[idx] = np.arange(len(idx))
+        k = pos[loc]
+        inside = k >= 0
+        k, p = k[inside], uv[inside]
+        left = np.bincount(k[p[:, 0] < mid_u[k]], minlength=len(idx))
+        low = np.bincount(k[p[:, 1] < mid_v[k]], minlength=len(idx))
+        total = np.bincount(k, minlength=len(idx))
+        u_ok = (left > 0) & (left < total)
+        v_ok = (low > 0) & (low < total)
+        axis = np.where((axis == 0) & ~u_ok & v_ok, 1, np.where((axis == 1) & ~v_ok & u_ok, 0, axis))
+    at = np.where(axis == 0, mid_u, mid_v)
+    return _split(faces, idx, axis, at)
 
 
 def _extend_one_step(faces: np.ndarray, node: np.ndarray, missing: int) -> np.ndarray:
@@ -571,7 +592,7 @@ def initial_mesh(uv: np.ndarray, features: np.ndarray, n_data: int, n_feature: i
         split = inner_idx[((nd[inner_idx] > n_data) | (nf[inner_idx] > n_feature)) & big]
         if len(split) == 0:
             return TMesh(add_strip(faces, mu), mu)
-        faces = split_longer_side(faces, split)
+        faces = split_longer_side(faces, split, uv, loc)
 
 
 def tensor_mesh(u_lines: np.ndarray, v_lines: np.ndarray, mu: float = 0.05) -> TMesh:
@@ -733,7 +754,8 @@ def fit_tspline(uv: np.ndarray, values: np.ndarray, eps: float, n_data: int | No
         if len(bad) == 0:
             reason = f"cells holding points with error > tolerance are at the smallest size ({limits.min_cell:g})"
             break
-        new_mesh, steps = make_analysis_suitable(TMesh(split_longer_side(mesh.faces, bad), mu), max_candidates)
+        new_mesh, steps = make_analysis_suitable(TMesh(split_longer_side(mesh.faces, bad, uv, loc), mu),
+                                                  max_candidates)
         new_nodes, new_ku, new_kv = local_knots(new_mesh)
         if len(new_nodes) > limits.max_control_points:
             reason = f"control point limit ({limits.max_control_points}) would be exceeded ({len(new_nodes)})"
@@ -785,6 +807,37 @@ def partition_of_unity(fit_or_mesh, uv: np.ndarray) -> np.ndarray:
     mesh = fit_or_mesh.mesh if isinstance(fit_or_mesh, TSplineFit) else fit_or_mesh
     _, ku, kv = local_knots(mesh)
     return np.asarray(basis_matrix(np.atleast_2d(uv), ku, kv).sum(axis=1)).ravel()
+
+
+# ----------------------------------------------------------------------------- tensor comparison
+def tensor_least_squares(uv: np.ndarray, values: np.ndarray, nu: int, nv: int, knots: str = "uniform"
+                         ) -> tuple[np.ndarray, np.ndarray]:
+    """Least-squares bicubic tensor-product B-spline (NURBS with unit weights) with nu x nv
+    poles on [0,1]², clamped; interior knots ``uniform`` or ``averaged`` (NURBS Book eq.
+    9.69 on the distinct parameter values of each direction). Returns (poles (nu*nv, d),
+    per-point error). The peer of seed 002 §3 (their NURBS fits use uniform knots)."""
+    from .bspline import approximation_knots, collocation_matrix
+
+    values = np.asarray(values, float).reshape(len(uv), -1)
+    mats = []
+    for col, n in ((0, nu), (1, nv)):
+        if knots == "averaged":
+            U = approximation_knots(np.unique(uv[:, col]), 3, n)
+            inner = U[4:-4]
+        else:
+            inner = np.linspace(0.0, 1.0, n - 2)[1:-1]
+        kn = np.concatenate([[0.0], inner, [1.0]])
+        mult = np.concatenate([[4], np.ones(len(inner), int), [4]])
+        mats.append(collocation_matrix(kn, mult, 3, False, n, uv[:, col]).tocsr())
+    Nu, Nv = mats
+    m = len(uv)
+    cu, du_ = Nu.indices.reshape(m, -1), Nu.data.reshape(m, -1)
+    cv, dv_ = Nv.indices.reshape(m, -1), Nv.data.reshape(m, -1)
+    cols = (cu[:, :, None] * nv + cv[:, None, :]).reshape(m, -1)
+    vals = (du_[:, :, None] * dv_[:, None, :]).reshape(m, -1)
+    A = sp.csc_matrix((vals.ravel(), (np.repeat(np.arange(m), cols.shape[1]), cols.ravel())), shape=(m, nu * nv))
+    P = _least_squares(A, values, np.tile(values.mean(axis=0), (nu * nv, 1)))
+    return P, np.linalg.norm(A @ P - values, axis=1)
 
 
 # ----------------------------------------------------------------------------- Bézier extraction
