@@ -814,15 +814,17 @@ def tensor_least_squares(uv: np.ndarray, values: np.ndarray, nu: int, nv: int, k
                          ) -> tuple[np.ndarray, np.ndarray]:
     """Least-squares bicubic tensor-product B-spline (NURBS with unit weights) with nu x nv
     poles on [0,1]², clamped; interior knots ``uniform`` or ``averaged`` (NURBS Book eq.
-    9.69 on the distinct parameter values of each direction). Returns (poles (nu*nv, d),
+    9.69 on the distinct parameter values of each direction; uniform where there are
+    fewer distinct values than poles). Returns (poles (nu*nv, d),
     per-point error). The peer of seed 002 §3 (their NURBS fits use uniform knots)."""
     from .bspline import approximation_knots, collocation_matrix
 
     values = np.asarray(values, float).reshape(len(uv), -1)
     mats = []
     for col, n in ((0, nu), (1, nv)):
-        if knots == "averaged":
-            U = approximation_knots(np.unique(uv[:, col]), 3, n)
+        distinct = np.unique(uv[:, col])
+        if knots == "averaged" and n <= len(distinct):   # else: uniform in that direction
+            U = approximation_knots(distinct, 3, n)
             inner = U[4:-4]
         else:
             inner = np.linspace(0.0, 1.0, n - 2)[1:-1]
