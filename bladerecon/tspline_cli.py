@@ -19,7 +19,7 @@ import numpy as np
 
 from .core.errors import BladeReconError
 
-__all__ = ["add_parser", "run_tspline", "read_zmap_points"]
+__all__ = ["add_parser", "run_tspline", "read_zmap_points", "fit_point_file"]
 
 
 def add_parser(sub) -> None:
@@ -79,7 +79,7 @@ def read_zmap_points(path: str) -> np.ndarray:
     return out
 
 
-def _blade_parameters(path: str, args) -> tuple[np.ndarray, np.ndarray, str] | None:
+def _blade_parameters(path: str, say) -> tuple[np.ndarray, np.ndarray, str] | None:
     """(uv, xyz, description) from the section reconstruction, or None for a z-map file."""
     from .core.readers import read_points
     from .core.sections import build_sections
@@ -95,65 +95,80 @@ def _blade_parameters(path: str, args) -> tuple[np.ndarray, np.ndarray, str] | N
         return None
     sections = build_sections(ps)
     pts = [s.points for s in sections.sections]
-    _say(args, f"{len(ps.points)} points in {len(pts)} sections: blade parameterisation from the reconstruction")
+    say(f"{len(ps.points)} points in {len(pts)} sections: blade parameterisation from the reconstruction")
     rec = reconstruct(pts, sections.span_axis, first_point_is_measured=not sections.sections[0].reordered)
     uv = np.column_stack([rec.point_u, rec.point_v])
     return uv, np.concatenate(pts), f"blade (u, v) of the section reconstruction, {len(pts)} sections"
 
 
-def run_tspline(args: argparse.Namespace) -> dict:
+def fit_point_file(path: str, tolerance: float, zmap: bool = False, nd: int | None = None, nf: int | None = None,
+                   max_iterations: int = 40, max_control_points: int = 6000, say=lambda msg: None):
+    """Read ``path``, choose the parameterisation from the data, fit (seed 002) and extract
+    the Bézier patches (3D control points, mm). Returns (fit, patches, summary dict)."""
     from .core import tspline as ts
 
+    if not tolerance > 0:
+        raise BladeReconError(f"--tolerance must be a positive distance in mm, got {tolerance}")
+    blade = None if zmap else _blade_parameters(path, say)
+    if blade is None:
+        if zmap:
+            from .core.readers import read_points
+            try:
+                xyz = read_points(path).points
+            except BladeReconError:
+                xyz = read_zmap_points(path)
+        else:
+            xyz = read_zmap_points(path)
+        uv, origin, scale = ts.normalise_parameters(xyz[:, :2])
+        values, kind = xyz[:, 2:3], "z-map over (x, y)"
+        say(f"{len(xyz)} points: z-map over (x, y)")
+    else:
+        uv_raw, xyz, kind = blade
+        uv, origin, scale = ts.normalise_parameters(uv_raw)
+        values = xyz
+    limits = ts.FitLimits(max_iterations=max_iterations, max_control_points=max_control_points)
+    fit = ts.fit_tspline(uv, values, tolerance, n_data=nd, n_feature=nf, xyz=xyz, limits=limits)
+    dup = fit.duplicates
+    if dup.get("points_sharing_parameters"):
+        say(f"warning: degenerate parameterisation: {dup['points_sharing_parameters']} points share a "
+            f"(u, v) with another point ({dup['conflicting_groups']} groups with different positions; "
+            "the fit takes their mean)")
+    say(f"{fit.n_control_points} control points after {fit.refinements} refinements; "
+        f"max {fit.max_error:.4g} mm; {fit.stop_reason}")
+    if not fit.converged:
+        say(f"warning: tolerance not reached: {fit.stop_reason}")
+    patches = ts.bezier_patches(fit)
+    summary = {
+        "control_points": fit.n_control_points, "refinements": fit.refinements,
+        "max": fit.max_error, "mean": fit.mean_error, "seconds": None, "faces": len(patches),
+        "tolerance": tolerance, "converged": fit.converged, "stop_reason": fit.stop_reason,
+        "parameterisation": kind, "points": int(len(uv)), "tmesh_faces": int(len(fit.mesh.reduced_faces())),
+        "bezier_patches": len(patches), "ast_extension_steps": fit.ast_steps, "duplicates": dup,
+        "history": fit.history, "fit_seconds": fit.seconds,
+        "error_measure": "vertical |z - S(x,y)| (mm)" if blade is None else "|S(u_j,v_j) - P_j| (mm), parametric",
+    }
+    if blade is None:
+        patches = ts.zmap_patches(patches, origin, scale)
+    else:
+        # the blade is closed around the profile; this T-spline is open in u: say how far
+        # its two u-ends (the seam at u = 0 and u = 1) lie apart
+        v = np.linspace(0.0, 1.0, 201)
+        ends = ts.evaluate(fit, np.column_stack([np.r_[np.zeros_like(v), np.ones_like(v)], np.r_[v, v]]))
+        summary["seam_gap_max"] = float(np.linalg.norm(ends[:201] - ends[201:], axis=1).max())
+    return fit, patches, summary
+
+
+def run_tspline(args: argparse.Namespace) -> dict:
     t0 = time.perf_counter()
-    if not args.tolerance > 0:
-        raise BladeReconError(f"--tolerance must be a positive distance in mm, got {args.tolerance}")
     if args.output:
         parent = os.path.dirname(os.path.abspath(args.output)) or "."
         if not os.path.isdir(parent):
             raise BladeReconError(f"--output {args.output}: folder {parent} does not exist; create it first")
         if os.path.abspath(args.output) == os.path.abspath(args.input):
             raise BladeReconError(f"--output {args.output} is the input file: choose another name")
-    blade = None if args.zmap else _blade_parameters(args.input, args)
-    if blade is None:
-        if args.zmap:
-            from .core.readers import read_points
-            try:
-                xyz = read_points(args.input).points
-            except BladeReconError:
-                xyz = read_zmap_points(args.input)
-        else:
-            xyz = read_zmap_points(args.input)
-        uv, origin, scale = ts.normalise_parameters(xyz[:, :2])
-        values, kind = xyz[:, 2:3], "z-map over (x, y)"
-        _say(args, f"{len(xyz)} points: z-map over (x, y)")
-    else:
-        uv_raw, xyz, kind = blade
-        uv, origin, scale = ts.normalise_parameters(uv_raw)
-        values = xyz
-    limits = ts.FitLimits(max_iterations=args.max_iterations, max_control_points=args.max_control_points)
-    fit = ts.fit_tspline(uv, values, args.tolerance, n_data=args.nd, n_feature=args.nf, xyz=xyz, limits=limits)
-    dup = fit.duplicates
-    if dup.get("points_sharing_parameters"):
-        _say(args, f"warning: degenerate parameterisation: {dup['points_sharing_parameters']} points share a "
-                   f"(u, v) with another point ({dup['conflicting_groups']} groups with different positions; "
-                   "the fit takes their mean)")
-    _say(args, f"{fit.n_control_points} control points after {fit.refinements} refinements; "
-               f"max {fit.max_error:.4g} mm; {fit.stop_reason}")
-    if not fit.converged:
-        _say(args, f"warning: tolerance not reached: {fit.stop_reason}")
-    patches = ts.bezier_patches(fit)
-    if blade is None:
-        patches = ts.zmap_patches(patches, origin, scale)
+    _, patches, summary = fit_point_file(args.input, args.tolerance, args.zmap, args.nd, args.nf,
+                                         args.max_iterations, args.max_control_points, lambda m: _say(args, m))
     t_fit = time.perf_counter()
-    summary = {
-        "control_points": fit.n_control_points, "refinements": fit.refinements,
-        "max": fit.max_error, "mean": fit.mean_error, "seconds": None, "faces": len(patches),
-        "tolerance": args.tolerance, "converged": fit.converged, "stop_reason": fit.stop_reason,
-        "parameterisation": kind, "points": int(len(uv)), "tmesh_faces": int(len(fit.mesh.reduced_faces())),
-        "bezier_patches": len(patches), "ast_extension_steps": fit.ast_steps, "duplicates": dup,
-        "history": fit.history, "fit_seconds": fit.seconds,
-        "error_measure": "vertical |z - S(x,y)| (mm)" if blade is None else "|S(u_j,v_j) - P_j| (mm), parametric",
-    }
     if args.output:
         from .fc.tspline_export import write_tspline_step
         _say(args, "sewing patches and writing STEP")

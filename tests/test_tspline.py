@@ -278,3 +278,21 @@ def test_tensor_least_squares_equals_scipy():
     ref = LSQBivariateSpline(uv[:, 0], uv[:, 1], z, np.linspace(0, 1, 7)[1:-1], np.linspace(0, 1, 5)[1:-1],
                              bbox=[0, 1, 0, 1])
     np.testing.assert_allclose(err, np.abs(ref.ev(uv[:, 0], uv[:, 1]) - z), atol=1e-8)
+
+
+def test_document_feature_for_the_workbench(part, tmp_path):
+    """The workbench command's factory: a Part::Feature holding the sewn patch shell."""
+    import FreeCAD
+    from bladerecon.fc.tspline_export import make_tspline_feature
+
+    src = tmp_path / "sinc.xyz"
+    np.savetxt(src, _sinc_points(41))
+    doc = FreeCAD.newDocument("tspline_test")
+    try:
+        obj = make_tspline_feature(doc, str(src), 0.05)
+        assert obj.Shape.ShapeType == "Shell" and len(obj.Shape.Faces) > 1
+        assert "control points" in obj.Label and "max" in obj.Label2
+        bb = obj.Shape.BoundBox
+        assert bb.XMin == pytest.approx(-8, abs=1e-9) and bb.YMax == pytest.approx(8, abs=1e-9)
+    finally:
+        FreeCAD.closeDocument(doc.Name)

@@ -18,7 +18,8 @@ from bladerecon.core.tspline import BezierPatch
 
 from .freecad_env import import_freecad
 
-__all__ = ["patch_surface", "patch_faces", "sew_patches", "occ_evaluate", "shell_gaps", "write_tspline_step"]
+__all__ = ["patch_surface", "patch_faces", "sew_patches", "occ_evaluate", "shell_gaps", "write_tspline_step",
+           "make_tspline_feature"]
 
 FreeCAD, Part = import_freecad()
 
@@ -110,3 +111,23 @@ def _free_edge_count(shell: Any) -> int:
             key = e.hashCode()
             count[key] = count.get(key, 0) + 1
     return sum(1 for v in count.values() if v == 1)
+
+
+def make_tspline_feature(doc: Any, path: str, tolerance: float, zmap: bool = False) -> Any:
+    """Fit an ASTS to the points in ``path`` (seed 002) and add the sewn patch shell to
+    ``doc`` as a ``Part::Feature`` named ``TSplineSurface``; the fit summary goes in its
+    Label2 (description) and the report view. Tolerance in mm."""
+    from bladerecon.tspline_cli import fit_point_file
+
+    _, patches, summary = fit_point_file(path, tolerance, zmap=zmap,
+                                         say=lambda m: FreeCAD.Console.PrintMessage(f"BladeRecon: {m}\n"))
+    shell = sew_patches(patch_faces(patches))
+    obj = doc.addObject("Part::Feature", "TSplineSurface")
+    obj.Shape = shell
+    obj.Label = f"T-spline ({summary['control_points']} control points)"
+    state = "" if summary["converged"] else f"; {summary['stop_reason']}"
+    obj.Label2 = (f"{os.path.basename(path)}: {summary['control_points']} control points, "
+                  f"{summary['refinements']} refinements, max {summary['max']:.4g} mm, "
+                  f"mean {summary['mean']:.4g} mm, {len(shell.Faces)} Bézier faces{state}")
+    doc.recompute()
+    return obj
