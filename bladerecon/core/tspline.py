@@ -47,7 +47,7 @@ __all__ = [
     "feature_mask", "initial_mesh", "make_analysis_suitable", "fit_tspline", "evaluate",
     "basis_matrix", "bezier_patches", "BezierPatch", "tensor_mesh", "duplicate_parameters",
     "normalise_parameters", "zmap_patches", "evaluate_patches", "partition_of_unity",
-    "is_analysis_suitable", "t_junctions", "crossings", "local_knots", "tensor_least_squares",
+    "is_analysis_suitable", "t_junctions", "crossings", "local_knots", "tensor_least_squares", "parameter_lengths",
 ]
 
 _INF = np.inf
@@ -316,19 +316,21 @@ def _split(faces: np.ndarray, idx: np.ndarray, axis: np.ndarray, at: np.ndarray)
 
 
 def split_longer_side(faces: np.ndarray, idx: np.ndarray, uv: np.ndarray | None = None,
-                      loc: np.ndarray | None = None) -> np.ndarray:
+                      loc: np.ndarray | None = None, lengths: tuple[float, float] = (1.0, 1.0)) -> np.ndarray:
     """Split faces ``idx`` across their longer side at the midpoint (seed 002 §2.2.2).
 
     With the points ``uv`` and the face ``loc`` holding each, a split that would leave one
     half without any point is made across the other side instead, when that one leaves
     points on both halves (our addition: sections measured on a few span lines otherwise
-    get cut between the lines, where no point can fix the new poles).
+    get cut between the lines, where no point can fix the new poles). ``lengths``: model
+    lengths (mm) of the parameter directions, so that "longer" means longer on the part
+    (seed 002's rectangular parameterisation is about isometric; a blade's (u, v) is not).
     """
     idx = np.asarray(idx, int)
     f = faces[idx]
     du, dv = f[:, 1] - f[:, 0], f[:, 3] - f[:, 2]
     mid_u, mid_v = 0.5 * (f[:, 0] + f[:, 1]), 0.5 * (f[:, 2] + f[:, 3])
-    axis = np.where(du >= dv, 0, 1)
+    axis = np.where(du * lengths[0] >= dv * lengths[1], 0, 1)
     if uv is not None and loc is not None and len(idx):
         pos = np.full(len(faces), -1)
         pos[idx] = np.arange(len(idx))
@@ -576,7 +578,7 @@ class _FaceLocator:
 
 # ----------------------------------------------------------------------------- initial mesh
 def initial_mesh(uv: np.ndarray, features: np.ndarray, n_data: int, n_feature: int, mu: float = 0.05,
-                 min_size: float = 1.0 / 1024) -> TMesh:
+                 min_size: float = 1.0 / 1024, lengths: tuple[float, float] = (1.0, 1.0)) -> TMesh:
     """Seed 002 §2.2.2–2.2.3: split [0,1]² cells across their longer side at the midpoint
     while a cell holds > ``n_data`` points or > ``n_feature`` feature points (cells are not
     split below ``min_size``), then add the strip of width ``mu``."""
@@ -592,7 +594,7 @@ def initial_mesh(uv: np.ndarray, features: np.ndarray, n_data: int, n_feature: i
         split = inner_idx[((nd[inner_idx] > n_data) | (nf[inner_idx] > n_feature)) & big]
         if len(split) == 0:
             return TMesh(add_strip(faces, mu), mu)
-        faces = split_longer_side(faces, split, uv, loc)
+        faces = split_longer_side(faces, split, uv, loc, lengths)
 
 
 def tensor_mesh(u_lines: np.ndarray, v_lines: np.ndarray, mu: float = 0.05) -> TMesh:
@@ -635,6 +637,35 @@ def duplicate_parameters(uv: np.ndarray, values: np.ndarray, tol: float = 1e-9) 
         spread = np.linalg.norm(vals - mean[groups], axis=1)
         conflicting = int(np.unique(groups[spread > tol]).size)
     return {"points_sharing_parameters": n_dup, "conflicting_groups": conflicting}
+
+
+def parameter_lengths(uv: np.ndarray, xyz: np.ndarray, bands: int = 16, steps: int = 64) -> tuple[float, float]:
+    """Model length (mm) of the unit step in u and in v: in each of ``bands`` bands of the
+    other parameter, the points are averaged in ``steps`` bins of this one and the length
+    of the polyline of the means is divided by its parameter span; the median over bands.
+    For a z-map over (x, y) this is about the x and y extents."""
+    out = []
+    for col in (0, 1):
+        band = np.minimum((uv[:, 1 - col] * bands).astype(int), bands - 1)
+        step = np.minimum((uv[:, col] * steps).astype(int), steps - 1)
+        key = band * steps + step
+        count = np.bincount(key, minlength=bands * steps)
+        mean_p = np.stack([np.bincount(key, xyz[:, c], bands * steps) for c in range(3)], axis=1)
+        mean_t = np.bincount(key, uv[:, col], bands * steps)
+        ok = count > 0
+        mean_p[ok] /= count[ok, None]
+        mean_t[ok] /= count[ok]
+        lengths = []
+        for b in range(bands):
+            sl = slice(b * steps, (b + 1) * steps)
+            sel = ok[sl]
+            if sel.sum() < 2:
+                continue
+            p, t = mean_p[sl][sel], mean_t[sl][sel]
+            if np.ptp(t) > 0:
+                lengths.append(np.linalg.norm(np.diff(p, axis=0), axis=1).sum() / np.ptp(t))
+        out.append(float(np.median(lengths)) if lengths else 1.0)
+    return out[0], out[1]
 
 
 # ----------------------------------------------------------------------------- fitting
@@ -695,7 +726,8 @@ def _node_guess(nodes: np.ndarray, uv: np.ndarray, values: np.ndarray) -> np.nda
 def fit_tspline(uv: np.ndarray, values: np.ndarray, eps: float, n_data: int | None = None,
                 n_feature: int | None = None, xyz: np.ndarray | None = None, mu: float = 0.05,
                 limits: FitLimits = FitLimits(), local: bool = True,
-                max_candidates: int = 40, initial: TMesh | None = None) -> TSplineFit:
+                max_candidates: int = 40, initial: TMesh | None = None,
+                lengths: tuple[float, float] | None = None) -> TSplineFit:
     """Adaptive ASTS fitting (seed 002 Fig. 2): initial mesh → AST → least squares →
     [split cells with error > eps → AST → local least squares (eq. 10)]* .
 
@@ -704,6 +736,8 @@ def fit_tspline(uv: np.ndarray, values: np.ndarray, eps: float, n_data: int | No
     N_f of §2.2.2 (seed 002 does not state its values; defaults m/16 and m/80: no cell
     holds more than 1/16 of the points or 1/8 of the feature points).
     ``local=False`` re-solves all poles each step.
+    ``lengths``: model lengths of the u and v directions for the longer-side rule (default:
+    estimated from ``xyz`` by :func:`parameter_lengths`).
     Stops at max error <= eps, or at a :class:`FitLimits` limit with ``converged=False``
     and the reason and the error reached.
     """
@@ -728,7 +762,10 @@ def fit_tspline(uv: np.ndarray, values: np.ndarray, eps: float, n_data: int | No
         if xyz is None:
             xyz = values if values.shape[1] == 3 else np.column_stack([uv, values[:, 0]])
         feat = feature_mask(uv, np.asarray(xyz, float))
-        mesh = initial_mesh(uv, feat, n_data, n_feature, mu)
+    if lengths is None:
+        lengths = parameter_lengths(uv, np.asarray(xyz, float)) if xyz is not None else (1.0, 1.0)
+    if initial is None:
+        mesh = initial_mesh(uv, feat, n_data, n_feature, mu, lengths=lengths)
     else:
         mesh = initial
     mesh, ast_steps = make_analysis_suitable(mesh, max_candidates)
@@ -754,7 +791,7 @@ def fit_tspline(uv: np.ndarray, values: np.ndarray, eps: float, n_data: int | No
         if len(bad) == 0:
             reason = f"cells holding points with error > tolerance are at the smallest size ({limits.min_cell:g})"
             break
-        new_mesh, steps = make_analysis_suitable(TMesh(split_longer_side(mesh.faces, bad, uv, loc), mu),
+        new_mesh, steps = make_analysis_suitable(TMesh(split_longer_side(mesh.faces, bad, uv, loc, lengths), mu),
                                                   max_candidates)
         new_nodes, new_ku, new_kv = local_knots(new_mesh)
         if len(new_nodes) > limits.max_control_points:
