@@ -80,7 +80,8 @@ def read_zmap_points(path: str) -> np.ndarray:
 
 
 def _blade_parameters(path: str, say) -> tuple[np.ndarray, np.ndarray, str] | None:
-    """(uv, xyz, description) from the section reconstruction, or None for a z-map file."""
+    """(uv, xyz, description, B-spline surface) from the section reconstruction, or None
+    for a z-map file."""
     from .core.readers import read_points
     from .core.sections import build_sections
     from .core.reconstruct import reconstruct
@@ -98,7 +99,7 @@ def _blade_parameters(path: str, say) -> tuple[np.ndarray, np.ndarray, str] | No
     say(f"{len(ps.points)} points in {len(pts)} sections: blade parameterisation from the reconstruction")
     rec = reconstruct(pts, sections.span_axis, first_point_is_measured=not sections.sections[0].reordered)
     uv = np.column_stack([rec.point_u, rec.point_v])
-    return uv, np.concatenate(pts), f"blade (u, v) of the section reconstruction, {len(pts)} sections"
+    return uv, np.concatenate(pts), f"blade (u, v) of the section reconstruction, {len(pts)} sections", rec.surface
 
 
 def fit_point_file(path: str, tolerance: float, zmap: bool = False, nd: int | None = None, nf: int | None = None,
@@ -123,11 +124,17 @@ def fit_point_file(path: str, tolerance: float, zmap: bool = False, nd: int | No
         values, kind = xyz[:, 2:3], "z-map over (x, y)"
         say(f"{len(xyz)} points: z-map over (x, y)")
     else:
-        uv_raw, xyz, kind = blade
+        uv_raw, xyz, kind, surface = blade
         uv, origin, scale = ts.normalise_parameters(uv_raw)
         values = xyz
+        from .core.bspline import evaluate_surface
+
+        def prior(g):
+            # between sections the T-spline follows the section reconstruction (see fit_tspline)
+            return evaluate_surface(surface, origin[0] + scale[0] * g[:, 0], origin[1] + scale[1] * g[:, 1])
     limits = ts.FitLimits(max_iterations=max_iterations, max_control_points=max_control_points)
-    fit = ts.fit_tspline(uv, values, tolerance, n_data=nd, n_feature=nf, xyz=xyz, limits=limits)
+    fit = ts.fit_tspline(uv, values, tolerance, n_data=nd, n_feature=nf, xyz=xyz, limits=limits,
+                         prior=None if blade is None else prior)
     dup = fit.duplicates
     if dup.get("points_sharing_parameters"):
         say(f"warning: degenerate parameterisation: {dup['points_sharing_parameters']} points share a "

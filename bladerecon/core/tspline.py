@@ -47,10 +47,11 @@ __all__ = [
     "feature_mask", "initial_mesh", "make_analysis_suitable", "fit_tspline", "evaluate",
     "basis_matrix", "bezier_patches", "BezierPatch", "tensor_mesh", "duplicate_parameters",
     "normalise_parameters", "zmap_patches", "evaluate_patches", "partition_of_unity",
-    "is_analysis_suitable", "t_junctions", "crossings", "local_knots", "tensor_least_squares", "parameter_lengths",
+    "is_analysis_suitable", "t_junctions", "crossings", "local_knots", "tensor_least_squares", "parameter_lengths", "greville",
 ]
 
 _INF = np.inf
+_RIDGE = 1e-10
 
 
 # ----------------------------------------------------------------------------- T-mesh
@@ -315,36 +316,54 @@ def _split(faces: np.ndarray, idx: np.ndarray, axis: np.ndarray, at: np.ndarray)
     return np.concatenate([faces[keep], a, b])
 
 
-def split_longer_side(faces: np.ndarray, idx: np.ndarray, uv: np.ndarray | None = None,
-                      loc: np.ndarray | None = None, lengths: tuple[float, float] = (1.0, 1.0)) -> np.ndarray:
-    """Split faces ``idx`` across their longer side at the midpoint (seed 002 §2.2.2).
+def _split_choice(faces: np.ndarray, idx: np.ndarray, uv: np.ndarray | None, loc: np.ndarray | None,
+                  lengths: tuple[float, float], min_lines: int) -> tuple[np.ndarray, np.ndarray]:
+    """Axis (0: cut at u = mid, 1: at v = mid; -1: no useful cut) for faces ``idx``.
 
-    With the points ``uv`` and the face ``loc`` holding each, a split that would leave one
-    half without any point is made across the other side instead, when that one leaves
-    points on both halves (our addition: sections measured on a few span lines otherwise
-    get cut between the lines, where no point can fix the new poles). ``lengths``: model
-    lengths (mm) of the parameter directions, so that "longer" means longer on the part
-    (seed 002's rectangular parameterisation is about isometric; a blade's (u, v) is not).
+    Seed 002 §2.2.2: across the longer side at the midpoint. Our additions, with the points
+    ``uv`` and the face ``loc`` holding each: a cut is useful only if each half keeps points
+    on at least ``min_lines`` distinct coordinate values across the cut (sections measured
+    on a few span lines otherwise get cut between the lines, where the new poles are left
+    to oscillate); if the longer side's cut is not useful the other one is taken, if neither,
+    none. ``lengths``: model lengths (mm) of the parameter directions, so that "longer"
+    means longer on the part (seed 002's rectangular parameterisation is about isometric;
+    a blade's (u, v) is not).
     """
-    idx = np.asarray(idx, int)
     f = faces[idx]
     du, dv = f[:, 1] - f[:, 0], f[:, 3] - f[:, 2]
-    mid_u, mid_v = 0.5 * (f[:, 0] + f[:, 1]), 0.5 * (f[:, 2] + f[:, 3])
+    mid = np.column_stack([0.5 * (f[:, 0] + f[:, 1]), 0.5 * (f[:, 2] + f[:, 3])])
     axis = np.where(du * lengths[0] >= dv * lengths[1], 0, 1)
-    if uv is not None and loc is not None and len(idx):
-        pos = np.full(len(faces), -1)
-        pos[idx] = np.arange(len(idx))
-        k = pos[loc]
-        inside = k >= 0
-        k, p = k[inside], uv[inside]
-        left = np.bincount(k[p[:, 0] < mid_u[k]], minlength=len(idx))
-        low = np.bincount(k[p[:, 1] < mid_v[k]], minlength=len(idx))
-        total = np.bincount(k, minlength=len(idx))
-        u_ok = (left > 0) & (left < total)
-        v_ok = (low > 0) & (low < total)
-        axis = np.where((axis == 0) & ~u_ok & v_ok, 1, np.where((axis == 1) & ~v_ok & u_ok, 0, axis))
-    at = np.where(axis == 0, mid_u, mid_v)
-    return _split(faces, idx, axis, at)
+    if uv is None or loc is None or not len(idx):
+        return axis, mid
+    pos = np.full(len(faces), -1)
+    pos[idx] = np.arange(len(idx))
+    k = pos[loc]
+    inside = k >= 0
+    k, p = k[inside], uv[inside]
+    ok = []
+    for col in (0, 1):
+        side = (p[:, col] >= mid[k, col]).astype(int)
+        lines = np.unique(np.column_stack([k, side, p[:, col]]), axis=0)
+        n = np.bincount(lines[:, 0].astype(int) * 2 + lines[:, 1].astype(int), minlength=2 * len(idx))
+        ok.append((n[0::2] >= min_lines) & (n[1::2] >= min_lines))
+    u_ok, v_ok = ok
+    pref_ok = np.where(axis == 0, u_ok, v_ok)
+    other_ok = np.where(axis == 0, v_ok, u_ok)
+    axis = np.where(pref_ok, axis, np.where(other_ok, 1 - axis, -1))
+    return axis, mid
+
+
+def split_longer_side(faces: np.ndarray, idx: np.ndarray, uv: np.ndarray | None = None,
+                      loc: np.ndarray | None = None, lengths: tuple[float, float] = (1.0, 1.0),
+                      min_lines: int = 2) -> np.ndarray:
+    """Split faces ``idx`` across their longer side at the midpoint (seed 002 §2.2.2), with
+    the data-aware choice of :func:`_split_choice` when the points are given (faces with no
+    useful cut are left as they are)."""
+    idx = np.asarray(idx, int)
+    axis, mid = _split_choice(faces, idx, uv, loc, lengths, min_lines)
+    keep = axis >= 0
+    at = np.where(axis == 0, mid[:, 0], mid[:, 1])
+    return _split(faces, idx[keep], axis[keep], at[keep])
 
 
 def _extend_one_step(faces: np.ndarray, node: np.ndarray, missing: int) -> np.ndarray:
@@ -594,7 +613,10 @@ def initial_mesh(uv: np.ndarray, features: np.ndarray, n_data: int, n_feature: i
         split = inner_idx[((nd[inner_idx] > n_data) | (nf[inner_idx] > n_feature)) & big]
         if len(split) == 0:
             return TMesh(add_strip(faces, mu), mu)
-        faces = split_longer_side(faces, split, uv, loc, lengths)
+        new = split_longer_side(faces, split, uv, loc, lengths)
+        if len(new) == len(faces):      # no cell can be cut with data on both halves
+            return TMesh(add_strip(faces, mu), mu)
+        faces = new
 
 
 def tensor_mesh(u_lines: np.ndarray, v_lines: np.ndarray, mu: float = 0.05) -> TMesh:
@@ -702,7 +724,7 @@ class TSplineFit:
         return len(self.nodes)
 
 
-def _least_squares(A: sp.csc_matrix, rhs: np.ndarray, guess: np.ndarray, ridge: float = 1e-10) -> np.ndarray:
+def _least_squares(A: sp.csc_matrix, rhs: np.ndarray, guess: np.ndarray, ridge: float | None = None) -> np.ndarray:
     """min ||A P - rhs||² (seed 002 eq. 7 / eq. 10) by sparse normal equations.
 
     A ridge of ``ridge`` × mean diagonal pulls poles towards ``guess`` only where the data
@@ -710,24 +732,29 @@ def _least_squares(A: sp.csc_matrix, rhs: np.ndarray, guess: np.ndarray, ridge: 
     """
     N = (A.T @ A).tocsc()
     diag = N.diagonal()
-    lam = ridge * max(float(diag.mean()) if diag.size else 1.0, 1e-300)
+    lam = (_RIDGE if ridge is None else ridge) * max(float(diag.mean()) if diag.size else 1.0, 1e-300)
     N = N + lam * sp.identity(N.shape[0], format="csc")
     b = A.T @ rhs + lam * guess
     lu = spla.splu(N)
     return lu.solve(np.ascontiguousarray(b))
 
 
-def _node_guess(nodes: np.ndarray, uv: np.ndarray, values: np.ndarray) -> np.ndarray:
-    """Value of the nearest data point to each node (a ridge target, not a fit)."""
-    _, j = cKDTree(uv).query(np.clip(nodes, 0, 1))
-    return values[j]
+def greville(ku: np.ndarray, kv: np.ndarray) -> np.ndarray:
+    """Greville point (mean of the three middle knots) of each blending function, clipped to
+    [0,1]²: where a pole sits on its surface, to second order (NURBS Book §9.2)."""
+    return np.clip(np.column_stack([ku[:, 1:4].mean(axis=1), kv[:, 1:4].mean(axis=1)]), 0.0, 1.0)
+
+
+def _nearest_data(uv: np.ndarray, values: np.ndarray):
+    tree = cKDTree(uv)
+    return lambda q: values[tree.query(q)[1]]
 
 
 def fit_tspline(uv: np.ndarray, values: np.ndarray, eps: float, n_data: int | None = None,
                 n_feature: int | None = None, xyz: np.ndarray | None = None, mu: float = 0.05,
                 limits: FitLimits = FitLimits(), local: bool = True,
                 max_candidates: int = 40, initial: TMesh | None = None,
-                lengths: tuple[float, float] | None = None) -> TSplineFit:
+                lengths: tuple[float, float] | None = None, prior=None) -> TSplineFit:
     """Adaptive ASTS fitting (seed 002 Fig. 2): initial mesh → AST → least squares →
     [split cells with error > eps → AST → local least squares (eq. 10)]* .
 
@@ -736,6 +763,10 @@ def fit_tspline(uv: np.ndarray, values: np.ndarray, eps: float, n_data: int | No
     N_f of §2.2.2 (seed 002 does not state its values; defaults m/16 and m/80: no cell
     holds more than 1/16 of the points or 1/8 of the feature points).
     ``local=False`` re-solves all poles each step.
+    ``prior``: a function (k, 2) parameters -> (k, d) values of a smooth reference surface;
+    the tiny ridge of the solves pulls poles towards it at their Greville points, which only
+    matters where the data leave poles free (between measured sections). Default: the
+    nearest data point for the first solve, the current T-spline for refined poles.
     ``lengths``: model lengths of the u and v directions for the longer-side rule (default:
     estimated from ``xyz`` by :func:`parameter_lengths`).
     Stops at max error <= eps, or at a :class:`FitLimits` limit with ``converged=False``
@@ -773,7 +804,8 @@ def fit_tspline(uv: np.ndarray, values: np.ndarray, eps: float, n_data: int | No
     cache: dict = {}
     nodes, ku, kv = local_knots(mesh)
     A = basis_matrix(uv, ku, kv, index, cache, nodes)
-    poles = _least_squares(A, values, _node_guess(nodes, uv, values))
+    nearest = _nearest_data(uv, values)
+    poles = _least_squares(A, values, (prior or nearest)(greville(ku, kv)))
     err = np.linalg.norm(A @ poles - values, axis=1)
     history = [{"control_points": len(nodes), "max": float(err.max()), "mean": float(err.mean()),
                 "changed": len(nodes)}]
@@ -791,8 +823,11 @@ def fit_tspline(uv: np.ndarray, values: np.ndarray, eps: float, n_data: int | No
         if len(bad) == 0:
             reason = f"cells holding points with error > tolerance are at the smallest size ({limits.min_cell:g})"
             break
-        new_mesh, steps = make_analysis_suitable(TMesh(split_longer_side(mesh.faces, bad, uv, loc, lengths), mu),
-                                                  max_candidates)
+        split_faces = split_longer_side(mesh.faces, bad, uv, loc, lengths)
+        if len(split_faces) == len(mesh.faces):
+            reason = "no cell holding points with error > tolerance can be cut with data on both halves"
+            break
+        new_mesh, steps = make_analysis_suitable(TMesh(split_faces, mu), max_candidates)
         new_nodes, new_ku, new_kv = local_knots(new_mesh)
         if len(new_nodes) > limits.max_control_points:
             reason = f"control point limit ({limits.max_control_points}) would be exceeded ({len(new_nodes)})"
@@ -807,7 +842,8 @@ def fit_tspline(uv: np.ndarray, values: np.ndarray, eps: float, n_data: int | No
         changed = keep_old < 0
         new_poles = np.empty((len(new_nodes), values.shape[1]))
         new_poles[~changed] = poles[keep_old[~changed]]
-        guess = _node_guess(new_nodes[changed], uv, values)
+        g = greville(new_ku[changed], new_kv[changed])
+        guess = prior(g) if prior else basis_matrix(g, ku, kv) @ poles
         if local:
             # seed 002 eq. 10: P_r = (A_srᵀA_sr)⁻¹ A_srᵀ (V_s − A_s(n−r) P_(n−r))
             Ar = A[:, np.flatnonzero(changed)]
@@ -817,7 +853,8 @@ def fit_tspline(uv: np.ndarray, values: np.ndarray, eps: float, n_data: int | No
             rhs = values[rows] - Ak @ new_poles[~changed]
             new_poles[changed] = _least_squares(Ar.tocsc(), rhs, guess)
         else:
-            new_poles = _least_squares(A, values, _node_guess(new_nodes, uv, values))
+            g = greville(new_ku, new_kv)
+            new_poles = _least_squares(A, values, prior(g) if prior else basis_matrix(g, ku, kv) @ poles)
         mesh, nodes, ku, kv, poles = new_mesh, new_nodes, new_ku, new_kv, new_poles
         alive = set(zip(map(tuple, nodes), map(tuple, ku), map(tuple, kv)))
         for key in [k for k in cache if k not in alive]:
