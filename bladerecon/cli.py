@@ -69,7 +69,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 # Further subcommands live in their own modules, each with ``add_parser(sub)`` that calls
 # ``set_defaults(run=function_returning_summary_dict)``; main() prints the summary with --json.
-SUBCOMMAND_MODULES: tuple[str, ...] = (".sections_cli", ".plan_cli")
+SUBCOMMAND_MODULES: tuple[str, ...] = (".sections_cli", ".plan_cli", ".tspline_cli")
 
 
 def _stats(d: np.ndarray, signed: bool | None = None) -> dict:
