@@ -97,6 +97,8 @@ def run_deviation(args: argparse.Namespace) -> dict:
     t_done = time.perf_counter()
     summary["seconds"] = {"read": t_read - t0, "align": res.seconds["align"], "measure": res.seconds["measure"],
                           "total": t_done - t0}
+    if args.report and section is not None:
+        summary["sections"] = _section_table(args, res, nominal)
     if args.report:
         from .deviation_report import write_deviation_report
         write_deviation_report(args.report, summary, res, nominal, section, names, surface)
@@ -104,6 +106,28 @@ def run_deviation(args: argparse.Namespace) -> dict:
         summary["seconds"]["total"] = time.perf_counter() - t0
         _say(args, f"report in {args.report}")
     return summary
+
+
+def _section_table(args, res, nominal) -> dict:
+    """Section parameters measured (after the best fit) vs the nominal cut in each section's
+    plane, for the report. A section that cannot be measured does not stop the report: the
+    message is kept instead of the table."""
+    from .core.alignment import apply_transform
+    from .core.readers import read_points
+    from .core.sections import build_sections
+    from .fc.section_compare import compare_section_parameters
+
+    _say(args, "section parameters, measured vs nominal")
+    try:
+        ss = build_sections(read_points(args.measured))
+        M = res.alignment.matrix if res.alignment is not None else np.eye(4)
+        pts = [apply_transform(s.points, M) for s in ss.sections]
+        rows = compare_section_parameters(pts, ss.span_axis, not ss.sections[0].reordered, nominal.shape,
+                                          name=args.nominal)
+        return {"rows": rows, "names": [s.name for s in ss.sections]}
+    except BladeReconError as err:
+        _say(args, f"no section-parameter table: {err}")
+        return {"error": str(err)}
 
 
 def _write_aligned(path: str, res, surface, section, names) -> str:

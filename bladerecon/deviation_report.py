@@ -205,6 +205,35 @@ def _symlog(linthresh: float, lim: float):
     return SymLogNorm(linthresh=max(linthresh, 1e-12), vmin=-lim, vmax=lim, base=10)
 
 
+_SECTION_COLUMNS = (("chord", "chord (mm)", 1.0, ".3f"), ("stagger_deg", "stagger (°)", 1.0, ".3f"),
+                    ("max_thickness", "t max (mm)", 1.0, ".4f"), ("max_thickness_pos", "t max at (mm from LE)", 1.0, ".2f"),
+                    ("le_radius", "LE radius (mm)", 1.0, ".4f"), ("te_radius", "TE radius (mm)", 1.0, ".4f"),
+                    ("inlet_angle_deg", "inlet angle (°)", 1.0, ".2f"), ("outlet_angle_deg", "outlet angle (°)", 1.0, ".2f"))
+
+
+def _sections_html(table: dict | None) -> str:
+    """Section parameters: per section three rows (measured, nominal, difference)."""
+    if not table:
+        return ""
+    if "error" in table:
+        return f"<h2>Section parameters</h2><p>Not measured: {html.escape(table['error'])}</p>"
+
+    def cell(v, fmt, sign=False):
+        return "n/a" if v is None else format(v, ("+" if sign else "") + fmt)
+
+    head = "".join(f"<th>{html.escape(label)}</th>" for _, label, _, _ in _SECTION_COLUMNS)
+    body = []
+    for name, row in zip(table["names"], table["rows"]):
+        for kind, values, sign in (("measured", row, False), ("nominal", row["nominal"], False),
+                                   ("difference", row["difference"], True)):
+            cells = "".join(f"<td>{cell(values.get(key), fmt, sign)}</td>" for key, _, _, fmt in _SECTION_COLUMNS)
+            first = f'<th rowspan="3">{html.escape(str(name))}</th>' if kind == "measured" else ""
+            body.append(f"<tr>{first}<th>{kind}</th>{cells}</tr>")
+    return (f"<h2>Section parameters</h2><p>Each measured section (after the best fit) against the nominal cut "
+            f"in its plane; difference = measured − nominal.</p><table><tr><th>section</th><th></th>{head}</tr>"
+            + "\n".join(body) + "</table>")
+
+
 def _html(summary: dict, images: list[tuple[str, str]]) -> str:
     tol = summary["tolerance"]
     rows = [("points", f"{summary['points']}"),
@@ -228,6 +257,7 @@ def _html(summary: dict, images: list[tuple[str, str]]) -> str:
         align += (f"<tr><th>RMS normal residual before → after (µm)</th>"
                   f"<td>{a['rms_before'] * 1000:.3f} → {a['rms_after'] * 1000:.3f} ({a['iterations']} iterations)</td></tr>")
     nominal = summary["nominal"]
+    sections = _sections_html(summary.get("sections"))
     figs = "\n".join(f'<figure><img src="{f}" alt="{html.escape(c)}"><figcaption>{html.escape(c)}</figcaption></figure>'
                      for f, c in images)
     return f"""<!DOCTYPE html>
@@ -245,6 +275,7 @@ th{{background:#eef}}img{{max-width:100%;border:1px solid #ddd}}figure{{margin:1
 <div><h2>Alignment</h2><table>{align}</table></div></div>
 <p>Per-point values: <a href="deviations.csv">deviations.csv</a> (x,y,z,deviation,nx,ny,nz,face);
 summary: <a href="summary.json">summary.json</a>.</p>
+{sections}
 {figs}
 </body></html>
 """

@@ -248,7 +248,16 @@ def test_cli_report_folder(tmp_path):
                  "zebra.png"):
         assert f'src="{name}"' in page and (out / name).stat().st_size > 5000, name
     assert (out / "deviations.csv").read_text().count("\n") == 12001
-    assert json.loads((out / "summary.json").read_text())["points"] == 12000
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["points"] == 12000
+    # section parameters, measured (2 µm noise) vs the nominal cut by OCC in each section's
+    # plane: both come from the same analytic blade, so they agree to the issue 3 accuracy
+    table = summary["sections"]
+    assert len(table["rows"]) == 6 and "Section parameters" in page
+    for row in table["rows"]:
+        diff = row["difference"]
+        assert abs(diff["chord"]) < 0.02 and abs(diff["max_thickness"]) < 0.005 and abs(diff["stagger_deg"]) < 0.05
+        assert row["nominal"]["chord"] > 10
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".bladerecon-")]
 
 

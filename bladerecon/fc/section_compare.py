@@ -1,0 +1,48 @@
+"""Section parameters measured vs nominal, section by section (issue 3 §4 in the issue 4 report).
+
+Every measured section is segmented and measured (:mod:`bladerecon.core.section_parameters`);
+the nominal shape is cut in the plane of that section (:func:`bladerecon.fc.slicing.cut_sections`)
+and measured the same way, its LE taken at the end nearest the measured LE. Lengths mm,
+angles degrees; differences are measured − nominal.
+"""
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+__all__ = ["PARAMETER_KEYS", "compare_section_parameters"]
+
+PARAMETER_KEYS = ("chord", "stagger_deg", "max_thickness", "max_thickness_pos", "le_radius", "te_radius",
+                  "inlet_angle_deg", "outlet_angle_deg")
+
+
+def compare_section_parameters(section_points: list[np.ndarray], span_axis: np.ndarray, measured_start: bool,
+                               nominal_shape: Any, offsets: tuple[float, ...] = (), step: float = 0.05,
+                               lenient: bool = True, name: str = "nominal") -> list[dict]:
+    """One dict per section: the measured parameters, ``"nominal"`` and ``"difference"``.
+
+    ``lenient``: an edge with too few points for a radius gives ``None`` and a warning
+    instead of an error (a report should not fail over one radius).
+    """
+    from ..core.section_parameters import measure_section, segment_sections
+    from ..core.segmentation import segment_section
+    from .slicing import cut_sections
+
+    segs = segment_sections(section_points, span_axis, measured_start)
+    measured = [measure_section(s, offsets, strict_radius=not lenient) for s in segs]
+    origins = np.array([s.frame.origin for s in segs])
+    normals = np.array([s.frame.normal for s in segs])
+    cuts = cut_sections(name, origins, normals, step, shape=nominal_shape)
+    rows = []
+    for seg, mp, cut in zip(segs, measured, cuts):
+        ns = segment_section(cut, seg.index, span_axis, le_hint=seg.frame.to_space(seg.le)[0])
+        nd = measure_section(ns, offsets, strict_radius=not lenient).as_dict()
+        row = mp.as_dict()
+        row["nominal"] = {k: nd[k] for k in ("points", "le", "te", *PARAMETER_KEYS, "thickness_at")}
+        row["difference"] = {k: (None if row[k] is None or nd[k] is None else row[k] - nd[k])
+                             for k in PARAMETER_KEYS}
+        row["difference"]["le_shift"] = float(np.linalg.norm(np.subtract(row["le"], nd["le"])))
+        row["difference"]["te_shift"] = float(np.linalg.norm(np.subtract(row["te"], nd["te"])))
+        rows.append(row)
+    return rows
