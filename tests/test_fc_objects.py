@@ -168,3 +168,18 @@ def test_report_summary_matches_the_analysis(chain, tmp_path, monkeypatch):
     assert summary["alignment"]["mode"] == "none" and summary["units"] == "mm"
     with pytest.raises(BladeReconError, match="does not exist"):
         bro.write_analysis_report(analysis, str(tmp_path / "no" / "such" / "report"))
+
+
+def test_surface_follows_its_points(tmp_path):
+    """Moving the measured points moves the surface on the next recompute (the link is a dependency)."""
+    doc = FreeCAD.newDocument("Follow")
+    try:
+        points = bro.make_measured_points(doc, str(PLAN))
+        surface = bro.make_blade_surface(doc, points)
+        doc.recompute()
+        x0 = surface.Shape.BoundBox.XMin
+        points.Points = [v + FreeCAD.Vector(0.5, 0.0, 0.0) for v in points.Points]
+        doc.recompute()
+        assert surface.Shape.BoundBox.XMin == pytest.approx(x0 + 0.5, abs=1e-6)
+    finally:
+        FreeCAD.closeDocument(doc.Name)

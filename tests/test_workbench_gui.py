@@ -192,6 +192,10 @@ try:
     panel.form.stripes.setValue(16)
     panel.accept()
     zebra_rgb = surface.ViewObject.Proxy.zebra.colours()
+    view = FreeCADGui.ActiveDocument.ActiveView
+    view.setViewDirection((0.6, -0.5, -0.6))         # the stripes follow the eye: colours change
+    FreeCADGui.updateGui()
+    result["zebra_follows_view"] = float(np.abs(surface.ViewObject.Proxy.zebra.colours() - zebra_rgb).max())
     result["zebra"] = {{"mode": surface.ViewObject.DisplayMode, "stripes": surface.ViewObject.ZebraStripes,
                        "dark": float(np.mean(zebra_rgb[:, 0] < 0.3)), "light": float(np.mean(zebra_rgb[:, 0] > 0.7))}}
     shot("zebra.png")
@@ -394,6 +398,7 @@ def test_zebra_and_curvature(gui_run):
     z = result["zebra"]
     assert z["mode"] == "Zebra" and z["stripes"] == 16
     assert z["dark"] > 0.2 and z["light"] > 0.2       # black and white bands, both present
+    assert result["zebra_follows_view"] > 0.5          # recoloured when the camera turned
     assert result["curvature_mode"] == "Curvature"
 
 

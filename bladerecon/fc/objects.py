@@ -97,22 +97,23 @@ class _Feature:
     def execute(self, obj: Any) -> None:
         try:
             self.compute(obj)
+            obj.Status = "ok"
+            return
         except BladeReconError as err:
-            self._fail(obj, str(err))
+            message = str(err)
         except Exception as err:
             if "Abort" in type(err).__name__:     # Esc on FreeCAD's progress bar
-                self._fail(obj, "cancelled; the previous result is kept: recompute to run it again")
-            # a bug: one line for the user, the traceback in the log only
-            FreeCAD.Console.PrintLog(traceback.format_exc())
-            self._fail(obj, f"internal error: {type(err).__name__}: {err}")
-        obj.Status = "ok"
-
-    @staticmethod
-    def _fail(obj: Any, message: str) -> None:
-        """Keep the previous result, say why, and make FreeCAD mark the object as failed."""
+                message = "cancelled; the previous result is kept: recompute to run it again"
+            else:  # a bug: one line for the user, the traceback in the log only
+                FreeCAD.Console.PrintLog(traceback.format_exc())
+                message = f"internal error: {type(err).__name__}: {err}"
+        # Keep the previous result, say why in one line, and raise: raising is the only way a
+        # Python feature gets marked as failed (FreeCAD then also logs a two-line trace of
+        # this very line, after our message).
         obj.Status = f"failed: {message}"
-        FreeCAD.Console.PrintError(f"BladeRecon: {obj.Label}: {message}\n")
-        raise BladeReconError(message)
+        where = "" if message.startswith(obj.Label) else f"{obj.Label}: "
+        FreeCAD.Console.PrintError(f"BladeRecon: {where}{message}\n")
+        raise BladeReconError(message) from None
 
     def compute(self, obj: Any) -> None:
         raise NotImplementedError
