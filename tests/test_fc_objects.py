@@ -89,17 +89,23 @@ def test_surface_map_against_occ(chain):
     assert dev.std() > 1e-4          # the map has something to show
 
 
-def test_failed_recompute_keeps_the_previous_result(chain):
-    doc, _, _, surface, _, _ = chain
-    area, poles = surface.Shape.Area, surface.UPoles
-    surface.Tolerance = -1.0
-    doc.recompute()
-    assert surface.Status.startswith("failed: ") and "Tolerance" in surface.Status
-    assert "Invalid" in surface.State
-    assert surface.Shape.Area == pytest.approx(area) and surface.UPoles == poles
-    surface.Tolerance = 0.0
-    doc.recompute()
-    assert surface.Status == "ok" and "Invalid" not in surface.State
+def test_failed_recompute_keeps_the_previous_result():
+    doc = FreeCAD.newDocument("Fail")
+    try:
+        points = bro.make_measured_points(doc, str(PLAN))
+        surface = bro.make_blade_surface(doc, points)
+        doc.recompute()
+        area, poles = surface.Shape.Area, surface.UPoles
+        surface.Tolerance = -1.0
+        doc.recompute()
+        assert surface.Status.startswith("failed: ") and "Tolerance" in surface.Status
+        assert "Invalid" in surface.State
+        assert surface.Shape.Area == pytest.approx(area) and surface.UPoles == poles
+        surface.Tolerance = 0.0
+        doc.recompute()
+        assert surface.Status == "ok" and "Invalid" not in surface.State
+    finally:
+        FreeCAD.closeDocument(doc.Name)
 
 
 def test_bad_file_raises_before_adding(tmp_path):

@@ -439,7 +439,7 @@ class DeviationAnalysis(_Feature):
             obj.Tolerance = 0.03
 
     def compute(self, obj: Any) -> None:
-        from bladerecon.core.alignment import transform_surface
+        from bladerecon.core.alignment import apply_transform
 
         from .deviation import Nominal, measure_deviation
 
@@ -454,15 +454,21 @@ class DeviationAnalysis(_Feature):
         with _Progress(f"{obj.Label}: measuring against {obj.Nominal.Label}", 3) as progress:
             nominal = Nominal(shape, obj.Nominal.Label)
             progress.step()
-            res = measure_deviation(ps.points, nominal, obj.Alignment, obj.Tolerance, source=obj.Measured.Label)
-            progress.step()
-            matrix = res.alignment.matrix if res.alignment is not None else np.eye(4)
-            grid, grid_dev, size = [], [], []
+            grid, grid_dev, size = np.zeros((0, 3)), [], []
             if obj.Surface is not None:
-                surface = transform_surface(core_surface(obj.Surface), matrix)
-                _, _, g = surface_grid(surface, MAP_SAMPLES_PER_SPAN, MAP_SAMPLES_SPAN)
-                grid_dev = nominal.measure(g.reshape(-1, 3)).signed
+                g = surface_grid(core_surface(obj.Surface), MAP_SAMPLES_PER_SPAN, MAP_SAMPLES_SPAN)[2]
                 grid, size = g.reshape(-1, 3), list(g.shape[:2])
+            if obj.Alignment == "none":
+                # one projection for points and surface grid: its set-up is most of the cost
+                res, grid_dev = _measure_together(ps.points, grid, nominal, obj.Tolerance, obj.Measured.Label)
+                progress.step()
+            else:
+                res = measure_deviation(ps.points, nominal, obj.Alignment, obj.Tolerance, source=obj.Measured.Label)
+                progress.step()
+                if len(grid):
+                    grid = apply_transform(grid, res.alignment.matrix)
+                    grid_dev = nominal.measure(grid).signed
+            matrix = res.alignment.matrix if res.alignment is not None else np.eye(4)
             progress.step()
         s = res.stats
         obj.PointCount = s["points"]
@@ -485,6 +491,24 @@ class DeviationAnalysis(_Feature):
         return {"points": obj.PointCount, "max": obj.Max, "min": obj.Min, "mean": obj.Mean, "std": obj.Std,
                 "rms": obj.Rms, "max_abs": obj.MaxAbs, "mean_abs": obj.MeanAbs,
                 "within_tolerance_pct": obj.WithinTolerancePct, "tolerance": obj.Tolerance}
+
+
+def _measure_together(points: np.ndarray, extra: np.ndarray, nominal, tolerance: float, source: str):
+    """:func:`~bladerecon.fc.deviation.measure_deviation` without alignment for ``points``, plus the
+    signed deviations of ``extra`` points from the same projection call (each point's foot is
+    found independently, so the points' results are those of measuring them alone)."""
+    from dataclasses import fields
+
+    from .deviation import DeviationResult, PointDeviation, check_units, deviation_summary
+
+    P = np.asarray(points, float)
+    check_units(P, nominal, source)
+    dev = nominal.measure(np.vstack([P, extra]) if len(extra) else P)
+    m = len(P)
+    mine = PointDeviation(**{f.name: (getattr(dev, f.name) if f.name == "methods" or getattr(dev, f.name) is None
+                                      else getattr(dev, f.name)[:m]) for f in fields(PointDeviation)})
+    res = DeviationResult(P, mine, None, deviation_summary(mine.signed, tolerance), {})
+    return res, dev.signed[m:]
 
 
 def make_deviation_analysis(doc: Any, measured: Any, nominal: Any, surface: Any = None, alignment: str = "none",
