@@ -152,6 +152,7 @@ try:
     # a nominal somewhere else: the core's one-line message in a box, the failed object marked
     far = doc.addObject("Part::Feature", "FarBox")
     far.Shape = Part.makeBox(10, 10, 10, FreeCAD.Vector(5000, 5000, 5000))
+    far.Shape.exportStep(os.path.join(out_dir, "far.step"))     # the same nominal for the CLI
     n_shown = len(shown)
     bad = commands.compare_with_nominal(points, far, None, "none", 0.03)
     result["far_nominal"] = {{"messages": shown[n_shown:], "status": bad.Status if bad else None,
@@ -408,8 +409,14 @@ def test_failed_recompute_keeps_the_previous_surface(gui_run):
     assert f["status"].startswith("failed: ") and "Tolerance" in f["status"]
     assert "Invalid" in f["state"] and f["same_area"] and not f["null"] and f["poles"] > 50
     assert result["recovered"]["status"] == "ok" and "Invalid" not in result["recovered"]["state"]
-    far = result["far_nominal"]       # through a command: the core's one-line message in a box
+    far = result["far_nominal"]       # through a command: the CLI's one-line message in a box
     assert len(far["messages"]) == 1 and "far from the nominal" in far["messages"][0]
+    _, out, _ = gui_run
+    proc = subprocess.run([sys.executable, "-m", "bladerecon", "deviation", str(SAMPLE / "measured.csv"), "--nominal",
+                           str(out / "far.step"), "--quiet"], cwd=str(REPO), capture_output=True, text=True,
+                          timeout=TIMEOUT_S, env={**os.environ, "PYTHONPATH": str(REPO)})
+    assert proc.returncode == 2
+    assert proc.stderr.strip() == "bladerecon: error: " + far["messages"][0]
     assert "Traceback" not in far["messages"][0] and "\n" not in far["messages"][0]
     assert far["status"].startswith("failed: ") and "Invalid" in far["state"]
 

@@ -460,10 +460,10 @@ class DeviationAnalysis(_Feature):
                 grid, size = g.reshape(-1, 3), list(g.shape[:2])
             if obj.Alignment == "none":
                 # one projection for points and surface grid: its set-up is most of the cost
-                res, grid_dev = _measure_together(ps.points, grid, nominal, obj.Tolerance, obj.Measured.Label)
+                res, grid_dev = _measure_together(ps.points, grid, nominal, obj.Tolerance, ps.source)
                 progress.step()
             else:
-                res = measure_deviation(ps.points, nominal, obj.Alignment, obj.Tolerance, source=obj.Measured.Label)
+                res = measure_deviation(ps.points, nominal, obj.Alignment, obj.Tolerance, source=ps.source)
                 progress.step()
                 if len(grid):
                     grid = apply_transform(grid, res.alignment.matrix)
@@ -553,7 +553,7 @@ def write_analysis_report(obj: Any, folder: str) -> dict:
     if obj.Nominal is None:
         raise BladeReconError(f"{obj.Label}: no nominal linked: set its 'Nominal' property")
     nominal = Nominal(obj.Nominal.Shape, obj.Nominal.Label)
-    res = measure_deviation(ps.points, nominal, obj.Alignment, obj.Tolerance, source=obj.Measured.Label)
+    res = measure_deviation(ps.points, nominal, obj.Alignment, obj.Tolerance, source=ps.source)
     s = res.stats
     al = res.alignment
     summary = {key: s[key] for key in ("points", "max", "min", "mean", "std", "rms", "within_tolerance_pct",

@@ -96,6 +96,7 @@ def _run(doc: Any, title: str, lines: list[str], result: str | None = None) -> A
     Objects that fail to recompute stay in the document, marked failed, with their reason
     in ``Status`` (shown here once).
     """
+    before = {o.Name: getattr(o, "Status", None) for o in doc.Objects}
     doc.openTransaction(title)
     try:
         FreeCADGui.doCommand("import bladerecon.fc.objects as bro")
@@ -112,10 +113,11 @@ def _run(doc: Any, title: str, lines: list[str], result: str | None = None) -> A
         show_error(f"{title} failed: {type(err).__name__}: {err}")
         return None
     doc.commitTransaction()
-    failed = [o for o in doc.Objects if "Invalid" in o.State or str(getattr(o, "Status", "")).startswith("failed")]
+    # newly failed in this step (an object that already failed the same way is not repeated)
+    failed = [o for o in doc.Objects if str(getattr(o, "Status", "")).startswith("failed")
+              and before.get(o.Name) != o.Status]
     if failed:
-        show_error("; ".join(f"{o.Label}: {o.Status[len('failed: '):] if hasattr(o, 'Status') else 'recompute failed'}"
-                             for o in failed))
+        show_error("; ".join(o.Status[len("failed: "):] for o in failed))
     if result is None:
         return None
     import __main__

@@ -221,7 +221,11 @@ class ViewProviderMeasuredPoints(_ViewProvider):
     def attach(self, vobj: Any) -> None:
         self.Object = vobj.Object
         self.points = ColouredPoints(vobj.PointSize if hasattr(vobj, "PointSize") else 3.0)
-        vobj.addDisplayMode(self.points.node, "Sections")
+        self.labels = coin.SoSeparator()
+        mode = coin.SoSeparator()
+        mode.addChild(self.points.node)
+        mode.addChild(self.labels)
+        vobj.addDisplayMode(mode, "Sections")
         self._update(vobj.Object)
 
     def getDisplayModes(self, vobj: Any) -> list[str]:  # noqa: N802
@@ -245,7 +249,25 @@ class ViewProviderMeasuredPoints(_ViewProvider):
             return
         section = np.array(obj.SectionIndex, dtype=int)
         palette = colormap.section_colours(int(section.max()) + 1)
-        self.points.set(np.array([(v.x, v.y, v.z) for v in obj.Points]), palette[section])
+        pts = np.array([(v.x, v.y, v.z) for v in obj.Points])
+        self.points.set(pts, palette[section])
+        # each section's name in its colour, just beyond the section's far end (an edge)
+        self.labels.removeAllChildren()
+        font = coin.SoFont()
+        font.size = 15.0
+        self.labels.addChild(font)
+        for k, name in enumerate(obj.SectionNames):
+            rows = np.flatnonzero(section == k)
+            if not rows.size:
+                continue
+            colour = coin.SoBaseColor()
+            colour.rgb = tuple(palette[k])
+            self.labels.addChild(colour)
+            q = pts[rows]
+            centre = q.mean(axis=0)
+            far = q[np.argmax(np.linalg.norm(q - centre, axis=1))]
+            p = far + 0.08 * (far - centre)
+            self.labels.addChild(_text(f"section {name}", (p[0], p[1]), p[2]))
 
 
 # --------------------------------------------------------------------------- sections
