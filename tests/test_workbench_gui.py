@@ -214,6 +214,23 @@ try:
     result["step_written"] = commands.export_step(surface, os.path.join(out_dir, "surface.step"))
     step("outputs")
 
+    # replayable: the console shows the lines the commands ran; run them again in a fresh document
+    console = [w for w in mw.findChildren(QtGui.QPlainTextEdit) if w.objectName() == "Python console"]
+    text = console[0].toPlainText() if console else ""
+    lines = [ln.lstrip(">. ").strip() for ln in text.splitlines()]
+    lines = [ln for ln in lines if ln.startswith(("import bladerecon", "_br_points =", "_br_surface ="))]
+    result["console_lines"] = lines
+    replay = FreeCAD.newDocument("Replay")
+    scope = {{"App": FreeCAD, "FreeCAD": FreeCAD}}
+    for ln in lines:
+        exec(ln.replace("App.getDocument('GuiTest')", "App.getDocument('Replay')"), scope)
+    replay.recompute()
+    again = [o for o in replay.Objects if bro.is_type(o, "BladeSurface")]
+    result["replayed"] = {{"surfaces": len(again), "u_poles": again[0].UPoles if again else None,
+                          "area_diff": abs(again[0].Shape.Area - surface.Shape.Area) if again else None}}
+    FreeCAD.closeDocument("Replay")
+    FreeCAD.setActiveDocument(doc.Name)
+
     commands.show_deviation_map(analysis, "Points")     # map on the points, zebra on the surface
     path = os.path.join(out_dir, "blade.FCStd")
     doc.saveAs(path)
@@ -419,6 +436,15 @@ def test_failed_recompute_keeps_the_previous_surface(gui_run):
     assert proc.stderr.strip() == "bladerecon: error: " + far["messages"][0]
     assert "Traceback" not in far["messages"][0] and "\n" not in far["messages"][0]
     assert far["status"].startswith("failed: ") and "Invalid" in far["state"]
+
+
+def test_commands_replay_from_the_console(gui_run):
+    result, _, _ = gui_run
+    lines = result["console_lines"]
+    assert any(ln.startswith("_br_points = bro.make_measured_points(") for ln in lines), lines
+    assert any(ln.startswith("_br_surface = bro.make_blade_surface(") for ln in lines), lines
+    r = result["replayed"]
+    assert r["surfaces"] >= 1 and r["u_poles"] == result["surface"]["u_poles"] and r["area_diff"] < 1e-9
 
 
 def test_outputs(gui_run):
