@@ -56,9 +56,9 @@ def test_curvature_scale_shows_flanks_and_edges():
     """Flanks at 1/80 mm^-1, edges at 1/0.5: both ends of the scale are used, the flanks not washed out."""
     values = np.concatenate([np.full(900, 1 / 80), np.full(100, 1 / 0.5)])
     rgb, knee, limit = colormap.curvature_colours(values)
-    assert knee == 1 / 80 and limit == 2.0
+    assert knee == 0.25 / 80 and limit == 2.0
     pos = colormap.symlog_position(np.array([1 / 80, 2.0]), knee, limit)
-    assert 0.05 < pos[0] < 0.3 and pos[1] == 1.0
+    assert 0.15 < pos[0] < 0.4 and pos[1] == 1.0      # flanks a visible step from neutral, edges at the end
     assert not np.allclose(rgb[0], colormap.diverging(np.array([0.0]))[0])
 
 

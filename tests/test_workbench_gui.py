@@ -181,6 +181,12 @@ try:
     shot("deviation_map.png")
     step("shot_b")
 
+    select(analysis)                                   # the toolbar command toggles the map off and on
+    result["map_toggle"] = [active("BladeRecon_DeviationMap")]
+    for _ in range(2):
+        FreeCADGui.runCommand("BladeRecon_DeviationMap")
+        FreeCADGui.updateGui()
+        result["map_toggle"].append((analysis.ViewObject.Visibility, surface.ViewObject.Visibility))
     commands.show_deviation_map(analysis, "Points")
     shot("deviation_points.png")
     commands.show_deviation_map(analysis, None)
@@ -204,6 +210,9 @@ try:
     commands.set_surface_analysis(surface, "Curvature", curvature="Mean")
     result["curvature_mode"] = surface.ViewObject.DisplayMode
     shot("curvature.png")
+    mean_rgb = surface.ViewObject.Proxy.curvature.colours()
+    commands.set_surface_analysis(surface, "Curvature", curvature="Gaussian")
+    result["gaussian_vs_mean"] = float(np.abs(surface.ViewObject.Proxy.curvature.colours() - mean_rgb).max())
     commands.set_surface_analysis(surface, "Zebra")
 
     # Write report: the command's error path here (the report itself: tests/test_fc_objects.py,
@@ -409,6 +418,8 @@ def test_deviation_colours_follow_the_deviation(gui_run):
     assert c["spearman"] > 0.99
     assert c["dev_range"][0] < 0 < c["dev_range"][1]
     assert result["map_off"] == {"analysis_visible": False, "surface_visible": True}
+    # the toolbar command: enabled with the analysis selected; off (surface shown), then on again
+    assert result["map_toggle"] == [True, [False, True], [True, False]]
 
 
 def test_zebra_and_curvature(gui_run):
@@ -418,6 +429,7 @@ def test_zebra_and_curvature(gui_run):
     assert z["dark"] > 0.2 and z["light"] > 0.2       # black and white bands, both present
     assert result["zebra_follows_view"] > 0.5          # recoloured when the camera turned
     assert result["curvature_mode"] == "Curvature"
+    assert result["gaussian_vs_mean"] > 0.3            # a different quantity, different colours
 
 
 def test_failed_recompute_keeps_the_previous_surface(gui_run):

@@ -60,17 +60,19 @@ def deviation_colours(values: np.ndarray, limit: float) -> np.ndarray:
 
 
 def curvature_scale(values: np.ndarray) -> tuple[float, float]:
-    """(knee, limit) of the symmetric-log curvature scale: median and 99th percentile of |value|.
+    """(knee, limit) of the symmetric-log curvature scale: a quarter of the median |value|, and
+    the 99th percentile of |value|.
 
     A blade's edges curve two orders of magnitude more than its flanks (1/r_LE against
     1/R_camber); a linear scale shows only the edges. Below the knee the scale is linear,
-    above it logarithmic, so the flanks' variation and the edges both read.
+    above it logarithmic; with the knee under the typical flank value the flanks take about
+    a quarter of each half of the bar, so their variation and the edges both read.
     """
     c = np.abs(np.asarray(values, float))
     c = c[np.isfinite(c)]
     if not c.size:
         return 1.0, 1.0
-    knee = max(float(np.median(c)), 1e-300)
+    knee = max(0.25 * float(np.median(c)), 1e-300)
     return knee, max(float(np.percentile(c, 99.0)), 2.0 * knee)
 
 

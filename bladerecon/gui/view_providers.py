@@ -67,7 +67,9 @@ class ColouredMesh:
     def __init__(self, lit: bool = True) -> None:
         self.node = coin.SoSeparator()
         hints = coin.SoShapeHints()
-        hints.vertexOrdering = coin.SoShapeHints.UNKNOWN_ORDERING   # two-sided lighting
+        # a known ordering with an unknown shape type is what turns on coin's two-sided lighting
+        # (the inside of the open blade, seen over the tip, is lit too) and keeps back faces
+        hints.vertexOrdering = coin.SoShapeHints.COUNTERCLOCKWISE
         hints.shapeType = coin.SoShapeHints.UNKNOWN_SHAPE_TYPE
         self.light = coin.SoLightModel()
         self.light.model = coin.SoLightModel.PHONG if lit else coin.SoLightModel.BASE_COLOR
@@ -416,10 +418,10 @@ class ViewProviderBladeSurface(_ViewProvider):
             values = curv.gaussian if gaussian else curv.mean
             rgb, knee, limit = colormap.curvature_colours(values)
             self.curvature.set_colours(rgb)
-            ticks = [(colormap.symlog_position(c, knee, limit), f"{c:+.3g}") for c in (-limit, -knee, knee, limit)]
+            ticks = [(colormap.symlog_position(c, knee, limit), f"{c:+.3g}") for c in (-limit, -4 * knee, 4 * knee, limit)]
             self.legend.update(colormap.diverging, ticks + [(0.0, "0")],
                                f"{vobj.CurvatureKind.lower()} curvature, {'1/mm^2' if gaussian else '1/mm'}",
-                               band=(2.0, "log scale beyond the median |value|"))
+                               band=(2.0, "log scale above median/4"))
 
     def _follow_camera(self, on: bool) -> None:
         """Recolour the zebra when the camera turns (reflection lines move with the eye)."""
