@@ -189,3 +189,21 @@ def test_surface_follows_its_points(tmp_path):
         assert surface.Shape.BoundBox.XMin == pytest.approx(x0 + 0.5, abs=1e-6)
     finally:
         FreeCAD.closeDocument(doc.Name)
+
+
+def test_importer_module(tmp_path):
+    """FreeCAD's importer API (File > Open / Import), registered in Init.py."""
+    from bladerecon.fc import importer
+
+    assert "bladerecon.fc.importer" in (REPO / "Init.py").read_text()
+    doc = importer.open(str(PLAN))
+    try:
+        obj = doc.Objects[0]
+        assert bro.is_type(obj, "MeasuredPoints") and obj.PointCount == 390 and obj.Status == "ok"
+        importer.insert(str(PLAN), doc.Name)
+        assert len(doc.Objects) == 2
+        with pytest.raises(BladeReconError, match="missing.csv"):
+            importer.insert(str(tmp_path / "missing.csv"), doc.Name)
+        assert len(doc.Objects) == 2
+    finally:
+        FreeCAD.closeDocument(doc.Name)
