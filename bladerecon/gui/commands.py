@@ -171,8 +171,8 @@ def compare_with_nominal(measured: Any, nominal: Any, surface: Any = None, align
                [f"_br_deviation = bro.make_deviation_analysis(App.getDocument({doc.Name!r}), {_ref(measured)}, "
                 f"{_ref(nominal)}, {_ref(surface)}, alignment={alignment!r}, tolerance={float(tolerance)!r})"],
                "_br_deviation")
-    if obj is not None and FreeCAD.GuiUp:
-        nominal.ViewObject.Visibility = False
+    if obj is not None and obj.Status == "ok" and FreeCAD.GuiUp:
+        _view_step(doc, "Hide the nominal", [f"{_ref(nominal)}.ViewObject.Visibility = False"])
         show_deviation_map(obj, "Surface" if surface is not None else "Points")
     return obj
 
