@@ -14,7 +14,6 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-import FreeCAD
 import FreeCADGui
 from pivy import coin
 
