@@ -18,3 +18,6 @@ for _bladerecon_root in (
         if _bladerecon_root not in sys.path:
             sys.path.append(_bladerecon_root)
         break
+
+# File > Open / Import of measured points: the module is imported only when a file is chosen.
+FreeCAD.addImportType("BladeRecon measured points (*.csv *.xyz *.pts *.asc *.dat)", "bladerecon.fc.importer")

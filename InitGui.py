@@ -22,6 +22,18 @@ class BladeReconWorkbench(FreeCADGui.Workbench):
         self.appendToolbar("BladeRecon", names)
         self.appendMenu("BladeRecon", names)
 
+    def Activated(self):
+        pass
+
+    def Deactivated(self):
+        pass
+
+    def ContextMenu(self, recipient):
+        from bladerecon.gui import commands
+
+        if recipient == "Tree":
+            self.appendContextMenu("BladeRecon", [n for n, c in commands.COMMANDS.items() if c.IsActive()])
+
     def GetClassName(self):
         return "Gui::PythonWorkbench"
 

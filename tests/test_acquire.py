@@ -369,8 +369,9 @@ try:
     result["preview_sizes"] = seen
     result["summary"] = cap.reader.acq.summary()
     result["expected"] = plan.expected
-    result["groups"] = [o.Name for o in doc.Objects if o.TypeId == "App::DocumentObjectGroup"]
-    result["vertices"] = sum(len(o.Shape.Vertexes) for o in doc.Objects if o.TypeId == "Part::Feature")
+    measured = [o for o in doc.Objects if getattr(getattr(o, "Proxy", None), "Type", None) == "MeasuredPoints"]
+    result["groups"] = [o.Name for o in measured]
+    result["vertices"] = sum(len(o.Shape.Vertexes) for o in measured)
     result["preview_left"] = doc.getObject("LiveAcquisition") is not None
 except Exception:
     result["exception"] = traceback.format_exc()

@@ -1,4 +1,4 @@
 """BladeRecon workbench GUI: commands, view providers, task panels (imports FreeCADGui).
 
-Only :mod:`bladerecon.gui.paths` is importable without FreeCAD.
+Only :mod:`bladerecon.gui.paths` and :mod:`bladerecon.gui.colormap` are importable without FreeCAD.
 """

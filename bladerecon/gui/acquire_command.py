@@ -4,7 +4,7 @@ The reader (:class:`bladerecon.acquire.reader.InstrumentReader`, journal first) 
 thread; a Qt timer in the GUI thread shows the points arriving as one vertex compound
 (``LiveAcquisition``) and the counters in the status bar. At the ``$E`` record the points are
 written to the chosen CSV and imported through :func:`bladerecon.gui.commands.import_points`
-(a replayable, undoable step that builds the ``MeasuredPoints`` group); the live preview is
+(a replayable, undoable step that builds a ``MeasuredPoints`` object); the live preview is
 removed. Importing this module registers ``BladeRecon_Acquire``.
 """
 from __future__ import annotations
@@ -44,7 +44,7 @@ def update_preview(doc: Any, points) -> Any:
 class LiveAcquisition:
     """One capture: ``start()`` returns at once; ``finished`` is set when it is over.
 
-    ``result``: the MeasuredPoints document after the import, ``error``: the message shown.
+    ``result``: the MeasuredPoints object after the import, ``error``: the message shown.
     """
 
     def __init__(self, port: str, output: str, baud: int = 115200, calibration: str | None = None,
@@ -116,7 +116,7 @@ class LiveAcquisition:
 class AcquireCommand(commands._Command):
     """Ask for a port and an output CSV, then capture live."""
 
-    icon = "BladeRecon_ImportPoints"
+    icon = "BladeRecon_Acquire"
     menu_text = "Acquire from instrument"
     tool_tip = ("Read points live from a measuring instrument over a serial line (BladeRecon protocol), "
                 "then build the measured points")

@@ -1,0 +1,579 @@
+"""Parametric document objects of the workbench: proxies and ``make_*`` factories (mm, degrees).
+
+MeasuredPoints -> BladeSections (LE/TE marked) and BladeSurface (native B-spline face) ->
+DeviationAnalysis (against a nominal shape). Each proxy only adapts: the work is done by
+``bladerecon.core`` (sections, reconstruction) and ``bladerecon.fc.deviation``.
+
+Rules kept here (they make saved files survive):
+
+* every result lives in document properties (``PropertyVectorList``, ``PropertyFloatList``,
+  ``Shape``), never in pickled proxy state: the proxy's state is only ``{"Type", "Version"}``
+  (``dumps``/``loads`` and the older ``__getstate__``/``__setstate__``);
+* the module path ``bladerecon.fc.objects`` and the class names are permanent: FCStd files
+  name them;
+* a file opened without the workbench still shows the Part shapes and keeps every property;
+* a failed recompute leaves the previous result in place, writes the one-line reason to
+  ``Status`` and the report view, and raises so FreeCAD marks the object as failed.
+
+View providers are attached only when ``FreeCAD.GuiUp`` (``bladerecon.gui.view_providers``).
+"""
+from __future__ import annotations
+
+import os
+import traceback
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from bladerecon.core.errors import BladeReconError
+
+from .freecad_env import import_freecad
+
+__all__ = ["MeasuredPoints", "BladeSections", "BladeSurface", "DeviationAnalysis",
+           "make_measured_points", "make_blade_sections", "make_blade_surface", "make_deviation_analysis",
+           "point_set", "core_surface", "surface_grid", "section_parameters", "SectionParameters",
+           "write_analysis_report", "export_step",
+           "is_type", "ALIGN_MODES", "METHODS"]
+
+FreeCAD, Part = import_freecad()
+
+ALIGN_MODES = ["none", "rigid", "translate", "rotate-z"]
+METHODS = ["auto", "interpolate", "approximate"]
+#: deviation colour map on the surface: samples per knot span around, and along the span
+MAP_SAMPLES_PER_SPAN = 1
+MAP_SAMPLES_SPAN = 21
+_VERSION = 1
+
+
+def _vectors(points: np.ndarray) -> list:
+    return [FreeCAD.Vector(*p) for p in np.asarray(points, float).reshape(-1, 3).tolist()]
+
+
+def _array(vectors) -> np.ndarray:
+    return np.array([(v.x, v.y, v.z) for v in vectors], dtype=float).reshape(-1, 3)
+
+
+def is_type(obj: Any, type_name: str) -> bool:
+    """True if ``obj`` is a BladeRecon object of ``type_name`` (e.g. ``"BladeSurface"``)."""
+    proxy = getattr(obj, "Proxy", None)
+    return getattr(proxy, "Type", None) == type_name
+
+
+class _Feature:
+    """Proxy base: properties declared once in ``PROPERTIES``, state-free pickling, failure marking.
+
+    ``PROPERTIES``: (type, name, group, tooltip, editor mode) with editor mode 0 editable,
+    1 read-only (a result), 2 hidden (bulk data).
+    """
+
+    TYPE = ""
+    PROPERTIES: tuple = ()
+
+    def __init__(self, obj: Any) -> None:
+        self.Type = self.TYPE
+        obj.Proxy = self
+        self._add_properties(obj)
+
+    def _add_properties(self, obj: Any) -> None:
+        for kind, name, group, tip, mode in self.PROPERTIES + (
+                ("App::PropertyString", "Status", "Base", "ok, or why the last recompute failed", 1),):
+            if name not in obj.PropertiesList:
+                obj.addProperty(kind, name, group, tip)
+            obj.setEditorMode(name, mode)
+
+    def onDocumentRestored(self, obj: Any) -> None:  # noqa: N802
+        self._add_properties(obj)   # properties added in later versions appear in old files
+
+    def dumps(self) -> dict:
+        return {"Type": self.TYPE, "Version": _VERSION}
+
+    def loads(self, state: Any) -> None:
+        self.Type = state.get("Type", self.TYPE) if isinstance(state, dict) else self.TYPE
+
+    __getstate__ = dumps       # FreeCAD 0.20 pickles through these
+    __setstate__ = loads
+
+    def execute(self, obj: Any) -> None:
+        try:
+            self.compute(obj)
+            obj.Status = "ok"
+            return
+        except BladeReconError as err:
+            message = str(err)
+        except Exception as err:
+            if "Abort" in type(err).__name__:     # Esc on FreeCAD's progress bar
+                message = "cancelled; the previous result is kept: recompute to run it again"
+            else:  # a bug: one line for the user, the traceback in the log only
+                FreeCAD.Console.PrintLog(traceback.format_exc())
+                message = f"internal error: {type(err).__name__}: {err}"
+        # Keep the previous result, say why in one line, and raise: raising is the only way a
+        # Python feature gets marked as failed (FreeCAD then also logs a two-line trace of
+        # this very line, after our message).
+        obj.Status = f"failed: {message}"
+        where = "" if message.startswith(obj.Label) else f"{obj.Label}: "
+        FreeCAD.Console.PrintError(f"BladeRecon: {where}{message}\n")
+        raise BladeReconError(message) from None
+
+    def compute(self, obj: Any) -> None:
+        raise NotImplementedError
+
+
+class _Progress:
+    """FreeCAD's progress bar (status bar in the GUI; Esc cancels between steps), or nothing."""
+
+    def __init__(self, text: str, steps: int) -> None:
+        self.bar = None
+        maker = getattr(FreeCAD.Base, "ProgressIndicator", None)
+        if maker is not None and FreeCAD.GuiUp:
+            self.bar = maker()
+            self.bar.start(text, steps)
+
+    def step(self) -> None:
+        if self.bar is not None:
+            self.bar.next(True)     # True: the user may abort here (raises FreeCAD's abort)
+
+    def __enter__(self) -> "_Progress":
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        if self.bar is not None:
+            self.bar.stop()
+
+
+# --------------------------------------------------------------------------- measured points
+class MeasuredPoints(_Feature):
+    """Measured blade points (mm) with their section labels; the shape is one vertex per point."""
+
+    TYPE = "MeasuredPoints"
+    PROPERTIES = (
+        ("App::PropertyVectorList", "Points", "Points", "measured points (mm), file order", 2),
+        ("App::PropertyIntegerList", "SectionIndex", "Points", "0-based section of each point", 2),
+        ("App::PropertyIntegerList", "LineNumbers", "Points", "1-based file line of each point", 2),
+        ("App::PropertyStringList", "SectionNames", "Points", "section names, hub to tip as in the file", 1),
+        ("App::PropertyString", "SourceFile", "Points", "file the points were read from", 1),
+        ("App::PropertyString", "Format", "Points", "csv, xyz-blocks or section-table", 1),
+        ("App::PropertyString", "Units", "Points", "length unit of the points", 1),
+        ("App::PropertyInteger", "PointCount", "Points", "number of points", 1),
+        ("App::PropertyInteger", "SectionCount", "Points", "number of sections", 1),
+    )
+
+    def compute(self, obj: Any) -> None:
+        n = len(obj.Points)
+        if len(obj.SectionIndex) != n:
+            raise BladeReconError(f"{obj.Label}: {n} points but {len(obj.SectionIndex)} section labels: "
+                                  "import the file again")
+        obj.PointCount, obj.SectionCount = n, len(obj.SectionNames)
+        obj.Shape = Part.makeCompound([Part.Vertex(v) for v in obj.Points]) if n else Part.Shape()
+
+
+def make_measured_points(doc: Any, path: str, name: str = "MeasuredPoints") -> Any:
+    """Read ``path`` (any format of :func:`bladerecon.core.readers.read_points`) into a MeasuredPoints.
+
+    Raises :class:`BladeReconError` for a bad file before anything is added to ``doc``.
+    """
+    from bladerecon.core.readers import read_points
+
+    ps = read_points(path)
+    obj = doc.addObject("Part::FeaturePython", name)
+    MeasuredPoints(obj)
+    obj.Label = f"Measured points ({os.path.basename(path)})"
+    obj.Points = _vectors(ps.points)
+    obj.SectionIndex = [int(i) for i in ps.section]
+    obj.LineNumbers = [int(i) for i in ps.line]
+    obj.SectionNames = [str(s) for s in ps.section_names]
+    obj.SourceFile = os.path.abspath(path)
+    obj.Format = ps.format
+    obj.Units = "mm"
+    _attach_view(obj, "MeasuredPoints")
+    return obj
+
+
+def point_set(obj: Any):
+    """The :class:`~bladerecon.core.readers.PointSet` held by a MeasuredPoints object."""
+    from bladerecon.core.readers import PointSet
+
+    if not is_type(obj, "MeasuredPoints"):
+        raise BladeReconError(f"{getattr(obj, 'Label', obj)} is not a MeasuredPoints object: select imported points")
+    n = len(obj.Points)
+    lines = np.array(obj.LineNumbers, dtype=int) if len(obj.LineNumbers) == n else np.arange(1, n + 1)
+    return PointSet(points=_array(obj.Points), section=np.array(obj.SectionIndex, dtype=int), line=lines,
+                    section_names=tuple(obj.SectionNames), source=obj.SourceFile or obj.Label,
+                    format=obj.Format or "csv")
+
+
+def _linked_points(obj: Any, link: str = "Points"):
+    target = getattr(obj, link)
+    if target is None:
+        raise BladeReconError(f"{obj.Label}: no measured points linked: set its '{link}' property")
+    return point_set(target)
+
+
+# --------------------------------------------------------------------------- sections
+@dataclass(frozen=True)
+class SectionParameters:
+    """Per-section results shown by BladeSections (mm): curves, LE/TE, chord length.
+
+    Issue 3's ``core/section_parameters.py`` (camber, thickness, metal angles, edge radii)
+    extends this: :func:`section_parameters` is the one place it plugs in.
+    """
+
+    names: tuple[str, ...]
+    curves: tuple               # core BSplineCurve per section
+    leading_edge: np.ndarray    # (k, 3)
+    trailing_edge: np.ndarray   # (k, 3)
+    chord: np.ndarray           # (k,) |TE - LE|
+    reordered: np.ndarray       # (k,) bool: points re-ordered along the profile
+    span_axis: np.ndarray
+
+
+def section_parameters(section_set) -> SectionParameters:
+    """Section curves and LE/TE of every section of a :class:`~bladerecon.core.sections.SectionSet`.
+
+    Curves are fitted as :func:`bladerecon.core.reconstruct.reconstruct` does (interpolating
+    or smoothing, chosen from spacing against noise); LE/TE by
+    :func:`bladerecon.core.surface.anchor_section` (``find_le_te``: extremes along the chord,
+    tangent perpendicular to it), the LE chained from the first section's measured start so
+    that LE and TE do not swap between sections.
+    """
+    from bladerecon.core.reconstruct import _fit_sections, first_point_edge_hint
+    from bladerecon.core.section_curves import choose_method
+    from bladerecon.core.surface import anchor_section
+
+    pts = [s.points for s in section_set.sections]
+    curves = _fit_sections(pts, choose_method(pts), None)
+    hint = None if section_set.sections[0].reordered else first_point_edge_hint(pts[0])
+    anchored = []
+    for sc in curves:
+        a = anchor_section(sc, section_set.span_axis, le_hint=hint)
+        anchored.append(a)
+        hint = a.le
+    le = np.array([a.le for a in anchored])
+    te = np.array([a.te for a in anchored])
+    return SectionParameters(tuple(s.name for s in section_set.sections), tuple(sc.curve for sc in curves),
+                             le, te, np.linalg.norm(te - le, axis=1),
+                             np.array([s.reordered for s in section_set.sections]), section_set.span_axis)
+
+
+class BladeSections(_Feature):
+    """Ordered closed sections of the linked points, LE/TE marked; shape: curves + edge vertices."""
+
+    TYPE = "BladeSections"
+    PROPERTIES = (
+        ("App::PropertyLink", "Points", "Input", "MeasuredPoints to segment", 0),
+        ("App::PropertyStringList", "SectionNames", "Sections", "names, hub to tip", 1),
+        ("App::PropertyVectorList", "LeadingEdges", "Sections", "LE point of each section (mm)", 1),
+        ("App::PropertyVectorList", "TrailingEdges", "Sections", "TE point of each section (mm)", 1),
+        ("App::PropertyFloatList", "ChordLengths", "Sections", "|TE - LE| per section (mm)", 1),
+        ("App::PropertyIntegerList", "Reordered", "Sections", "1 where the points were re-ordered along the profile", 1),
+        ("App::PropertyVector", "SpanAxis", "Sections", "unit span direction, first section to last", 1),
+    )
+
+    def compute(self, obj: Any) -> None:
+        from bladerecon.core.sections import build_sections
+
+        from .convert import to_part_curve
+
+        params = section_parameters(build_sections(_linked_points(obj)))
+        edges = [Part.Edge(to_part_curve(c)) for c in params.curves]
+        marks = [Part.Vertex(FreeCAD.Vector(*p)) for p in np.vstack([params.leading_edge, params.trailing_edge])]
+        obj.Shape = Part.makeCompound(edges + marks)
+        obj.SectionNames = list(params.names)
+        obj.LeadingEdges = _vectors(params.leading_edge)
+        obj.TrailingEdges = _vectors(params.trailing_edge)
+        obj.ChordLengths = [float(c) for c in params.chord]
+        obj.Reordered = [int(r) for r in params.reordered]
+        obj.SpanAxis = FreeCAD.Vector(*params.span_axis)
+
+
+def make_blade_sections(doc: Any, points_obj: Any, name: str = "BladeSections") -> Any:
+    obj = doc.addObject("Part::FeaturePython", name)
+    BladeSections(obj)
+    obj.Label = "Blade sections"
+    obj.Points = points_obj
+    _attach_view(obj, "BladeSections")
+    return obj
+
+
+# --------------------------------------------------------------------------- surface
+class BladeSurface(_Feature):
+    """One periodic x clamped cubic B-spline face through the linked points (core.reconstruct)."""
+
+    TYPE = "BladeSurface"
+    PROPERTIES = (
+        ("App::PropertyLink", "Points", "Input", "MeasuredPoints to reconstruct", 0),
+        ("App::PropertyEnumeration", "Method", "Reconstruction",
+         "auto: interpolate or smooth, chosen from point spacing against noise", 0),
+        ("App::PropertyFloat", "Tolerance", "Reconstruction",
+         "with Method approximate: largest distance of a measured point (mm); 0 = from the noise", 0),
+        ("App::PropertyString", "MethodUsed", "Result", "method the reconstruction used", 1),
+        ("App::PropertyString", "MethodReason", "Result", "why that method", 1),
+        ("App::PropertyInteger", "UPoles", "Result", "poles around the section", 1),
+        ("App::PropertyInteger", "VPoles", "Result", "poles along the span", 1),
+        ("App::PropertyInteger", "UDegree", "Result", "degree around", 1),
+        ("App::PropertyInteger", "VDegree", "Result", "degree along the span", 1),
+        ("App::PropertyFloat", "NoiseEstimate", "Result", "estimated measurement noise (mm)", 1),
+        ("App::PropertyFloat", "RefitError", "Result", "compatible curves vs section curves, max (mm)", 1),
+        ("App::PropertyFloat", "FitMax", "Result", "largest distance measured point - surface (mm)", 1),
+        ("App::PropertyFloat", "FitRms", "Result", "RMS distance measured point - surface (mm)", 1),
+    )
+
+    def _add_properties(self, obj: Any) -> None:
+        fresh = "Method" not in obj.PropertiesList
+        super()._add_properties(obj)
+        if fresh:
+            obj.Method = METHODS
+            obj.Method = "auto"
+
+    def compute(self, obj: Any) -> None:
+        from bladerecon.core.projection import project_points_to_surface
+        from bladerecon.core.reconstruct import reconstruct
+        from bladerecon.core.sections import build_sections
+
+        from .convert import make_face
+
+        if obj.Tolerance < 0:
+            raise BladeReconError(f"{obj.Label}: Tolerance {obj.Tolerance} mm: give 0 (automatic) or a positive distance")
+        tolerance = obj.Tolerance if obj.Method == "approximate" and obj.Tolerance > 0 else None
+        with _Progress(f"{obj.Label}: reconstructing", 3) as progress:
+            sections = build_sections(_linked_points(obj))
+            pts = [s.points for s in sections.sections]
+            progress.step()
+            rec = reconstruct(pts, sections.span_axis, method=obj.Method, tolerance=tolerance,
+                              first_point_is_measured=not sections.sections[0].reordered)
+            progress.step()
+            proj = project_points_to_surface(rec.surface, np.concatenate(pts), rec.point_u, rec.point_v)
+            progress.step()
+        obj.Shape = make_face(rec.surface)
+        s = rec.surface
+        obj.MethodUsed, obj.MethodReason = rec.choice.method, rec.choice.reason
+        obj.UPoles, obj.VPoles = int(s.shape[0]), int(s.shape[1])
+        obj.UDegree, obj.VDegree = int(s.u_degree), int(s.v_degree)
+        obj.NoiseEstimate, obj.RefitError = float(rec.choice.noise_mm), float(rec.refit_error)
+        obj.FitMax = float(proj.distance.max())
+        obj.FitRms = float(np.sqrt(np.mean(proj.distance ** 2)))
+
+
+def make_blade_surface(doc: Any, points_obj: Any, method: str = "auto", tolerance: float = 0.0,
+                       name: str = "BladeSurface") -> Any:
+    obj = doc.addObject("Part::FeaturePython", name)
+    BladeSurface(obj)
+    obj.Label = "Blade surface"
+    obj.Points = points_obj
+    obj.Method = method
+    obj.Tolerance = float(tolerance)
+    _attach_view(obj, "BladeSurface")
+    return obj
+
+
+def core_surface(obj: Any):
+    """The core :class:`~bladerecon.core.spline.BSplineSurface` of a BladeSurface (or any one-face shape)."""
+    from .convert import from_part_surface
+
+    shape = getattr(obj, "Shape", None)
+    if shape is None or shape.isNull() or len(shape.Faces) != 1:
+        raise BladeReconError(f"{getattr(obj, 'Label', obj)}: no surface yet: recompute it first")
+    return from_part_surface(shape.Faces[0].Surface)
+
+
+def surface_grid(surface, per_span: int, n_v: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A (nu, nv) grid on ``surface`` for display: (u, v, points (nu, nv, 3) mm).
+
+    u follows the knots (``per_span`` samples per span, so the round edges, where the knots
+    are dense, are sampled densely); for a periodic u the first column is repeated at the
+    end so that a quad mesh closes.
+    """
+    from bladerecon.core.bspline import evaluate_surface
+
+    k = np.asarray(surface.u_knots, float)
+    f = np.arange(per_span) / per_span
+    u = (k[:-1, None] + np.diff(k)[:, None] * f[None, :]).ravel()
+    u = np.append(u, k[-1])
+    v = np.linspace(*surface.v_domain, n_v)
+    uu, vv = np.meshgrid(u, v, indexing="ij")
+    pts = evaluate_surface(surface, uu.ravel(), vv.ravel()).reshape(len(u), len(v), 3)
+    return u, v, pts
+
+
+# --------------------------------------------------------------------------- deviation
+class DeviationAnalysis(_Feature):
+    """Signed deviation (mm, + outside) of the measured points, and of the surface, from a nominal.
+
+    The statistics are those of ``python3 -m bladerecon deviation --json`` (same functions:
+    :func:`bladerecon.fc.deviation.measure_deviation`).
+    """
+
+    TYPE = "DeviationAnalysis"
+    PROPERTIES = (
+        ("App::PropertyLink", "Measured", "Input", "MeasuredPoints compared with the nominal", 0),
+        ("App::PropertyLink", "Nominal", "Input", "nominal blade: any object with a shape", 0),
+        ("App::PropertyLink", "Surface", "Input", "optional BladeSurface to colour by its deviation", 0),
+        ("App::PropertyEnumeration", "Alignment", "Input", "best fit before comparing", 0),
+        ("App::PropertyFloat", "Tolerance", "Input", "profile tolerance ±mm", 0),
+        ("App::PropertyInteger", "PointCount", "Statistics", "points compared", 1),
+        ("App::PropertyFloat", "Max", "Statistics", "largest signed deviation (mm)", 1),
+        ("App::PropertyFloat", "Min", "Statistics", "smallest signed deviation (mm)", 1),
+        ("App::PropertyFloat", "Mean", "Statistics", "mean signed deviation (mm)", 1),
+        ("App::PropertyFloat", "Std", "Statistics", "standard deviation (mm)", 1),
+        ("App::PropertyFloat", "Rms", "Statistics", "RMS deviation (mm)", 1),
+        ("App::PropertyFloat", "MaxAbs", "Statistics", "largest |deviation| (mm)", 1),
+        ("App::PropertyFloat", "MeanAbs", "Statistics", "mean |deviation| (mm)", 1),
+        ("App::PropertyFloat", "WithinTolerancePct", "Statistics", "% of points within ±Tolerance", 1),
+        ("App::PropertyString", "MeasureMethod", "Statistics", "core-projection and/or occ", 1),
+        ("App::PropertyMatrix", "AlignmentMatrix", "Statistics", "rigid transform applied to the measured data", 1),
+        ("App::PropertyFloat", "RotationDeg", "Statistics", "rotation of the alignment (degrees)", 1),
+        ("App::PropertyVector", "TranslationMm", "Statistics", "translation of the alignment (mm)", 1),
+        ("App::PropertyFloatList", "Deviations", "Data", "signed deviation per measured point (mm)", 2),
+        ("App::PropertyVectorList", "AlignedPoints", "Data", "measured points after alignment (mm)", 2),
+        ("App::PropertyFloatList", "SurfaceDeviations", "Data", "signed deviation per surface grid vertex (mm)", 2),
+        ("App::PropertyVectorList", "SurfaceGrid", "Data", "surface grid after alignment (mm), u-major", 2),
+        ("App::PropertyIntegerList", "SurfaceGridSize", "Data", "grid size (nu, nv)", 2),
+    )
+
+    def _add_properties(self, obj: Any) -> None:
+        fresh = "Alignment" not in obj.PropertiesList
+        super()._add_properties(obj)
+        if fresh:
+            obj.Alignment = ALIGN_MODES
+            obj.Alignment = "none"
+            obj.Tolerance = 0.03
+
+    def compute(self, obj: Any) -> None:
+        from bladerecon.core.alignment import apply_transform
+
+        from .deviation import Nominal, measure_deviation
+
+        ps = _linked_points(obj, "Measured")
+        if obj.Nominal is None:
+            raise BladeReconError(f"{obj.Label}: no nominal linked: set its 'Nominal' property")
+        shape = getattr(obj.Nominal, "Shape", None)
+        if shape is None or shape.isNull():
+            raise BladeReconError(f"{obj.Label}: the nominal {obj.Nominal.Label} has no shape")
+        if not obj.Tolerance > 0:
+            raise BladeReconError(f"{obj.Label}: Tolerance {obj.Tolerance}: give a positive tolerance in mm")
+        with _Progress(f"{obj.Label}: measuring against {obj.Nominal.Label}", 3) as progress:
+            nominal = Nominal(shape, obj.Nominal.Label)
+            progress.step()
+            grid, grid_dev, size = np.zeros((0, 3)), [], []
+            if obj.Surface is not None:
+                g = surface_grid(core_surface(obj.Surface), MAP_SAMPLES_PER_SPAN, MAP_SAMPLES_SPAN)[2]
+                grid, size = g.reshape(-1, 3), list(g.shape[:2])
+            if obj.Alignment == "none":
+                # one projection for points and surface grid: its set-up is most of the cost
+                res, grid_dev = _measure_together(ps.points, grid, nominal, obj.Tolerance, ps.source)
+                progress.step()
+            else:
+                res = measure_deviation(ps.points, nominal, obj.Alignment, obj.Tolerance, source=ps.source)
+                progress.step()
+                if len(grid):
+                    grid = apply_transform(grid, res.alignment.matrix)
+                    grid_dev = nominal.measure(grid).signed
+            matrix = res.alignment.matrix if res.alignment is not None else np.eye(4)
+            progress.step()
+        s = res.stats
+        obj.PointCount = s["points"]
+        obj.Max, obj.Min, obj.Mean, obj.Std = s["max"], s["min"], s["mean"], s["std"]
+        obj.Rms, obj.MaxAbs, obj.MeanAbs = s["rms"], s["max_abs"], s["mean_abs"]
+        obj.WithinTolerancePct = s["within_tolerance_pct"]
+        obj.MeasureMethod = "+".join(res.deviation.methods)
+        obj.AlignmentMatrix = FreeCAD.Matrix(*np.asarray(matrix, float).ravel().tolist())
+        obj.RotationDeg = float(res.alignment.rotation_deg) if res.alignment is not None else 0.0
+        obj.TranslationMm = FreeCAD.Vector(*(matrix[:3, 3]))
+        obj.Deviations = [float(x) for x in res.deviation.signed]
+        obj.AlignedPoints = _vectors(res.points)
+        obj.SurfaceDeviations = [float(x) for x in grid_dev]
+        obj.SurfaceGrid = _vectors(grid) if len(grid) else []
+        obj.SurfaceGridSize = [int(x) for x in size]
+
+    @staticmethod
+    def stats(obj: Any) -> dict:
+        """The statistics as in ``deviation --json`` (mm)."""
+        return {"points": obj.PointCount, "max": obj.Max, "min": obj.Min, "mean": obj.Mean, "std": obj.Std,
+                "rms": obj.Rms, "max_abs": obj.MaxAbs, "mean_abs": obj.MeanAbs,
+                "within_tolerance_pct": obj.WithinTolerancePct, "tolerance": obj.Tolerance}
+
+
+def _measure_together(points: np.ndarray, extra: np.ndarray, nominal, tolerance: float, source: str):
+    """:func:`~bladerecon.fc.deviation.measure_deviation` without alignment for ``points``, plus the
+    signed deviations of ``extra`` points from the same projection call (each point's foot is
+    found independently, so the points' results are those of measuring them alone)."""
+    from dataclasses import fields
+
+    from .deviation import DeviationResult, PointDeviation, check_units, deviation_summary
+
+    P = np.asarray(points, float)
+    check_units(P, nominal, source)
+    dev = nominal.measure(np.vstack([P, extra]) if len(extra) else P)
+    m = len(P)
+    mine = PointDeviation(**{f.name: (getattr(dev, f.name) if f.name == "methods" or getattr(dev, f.name) is None
+                                      else getattr(dev, f.name)[:m]) for f in fields(PointDeviation)})
+    res = DeviationResult(P, mine, None, deviation_summary(mine.signed, tolerance), {})
+    return res, dev.signed[m:]
+
+
+def make_deviation_analysis(doc: Any, measured: Any, nominal: Any, surface: Any = None, alignment: str = "none",
+                            tolerance: float = 0.03, name: str = "DeviationAnalysis") -> Any:
+    obj = doc.addObject("App::FeaturePython", name)
+    DeviationAnalysis(obj)
+    obj.Label = "Deviation analysis"
+    obj.Measured, obj.Nominal, obj.Surface = measured, nominal, surface
+    obj.Alignment = alignment
+    obj.Tolerance = float(tolerance)
+    _attach_view(obj, "DeviationAnalysis")
+    return obj
+
+
+# --------------------------------------------------------------------------- view providers
+def _attach_view(obj: Any, kind: str) -> None:
+    """Attach the GUI view provider of ``kind`` when the GUI is up (never imports FreeCADGui headless)."""
+    if not FreeCAD.GuiUp:
+        return
+    from bladerecon.gui import view_providers
+
+    getattr(view_providers, f"ViewProvider{kind}")(obj.ViewObject)
+
+
+# --------------------------------------------------------------------------- outputs
+def write_analysis_report(obj: Any, folder: str) -> dict:
+    """The deviation report (``deviation --report``'s report.html, plots, CSV) of a DeviationAnalysis.
+
+    The deviation is measured again (the plots need feet and normals, which the document
+    does not keep); returns the summary written to summary.json.
+    """
+    from bladerecon.deviation_report import write_deviation_report
+
+    from .deviation import Nominal, measure_deviation
+
+    if not is_type(obj, "DeviationAnalysis"):
+        raise BladeReconError(f"{getattr(obj, 'Label', obj)} is not a deviation analysis: select one")
+    parent = os.path.dirname(os.path.abspath(folder))
+    if not os.path.isdir(parent):
+        raise BladeReconError(f"report folder {folder}: folder {parent} does not exist; create it first")
+    ps = _linked_points(obj, "Measured")
+    if obj.Nominal is None:
+        raise BladeReconError(f"{obj.Label}: no nominal linked: set its 'Nominal' property")
+    nominal = Nominal(obj.Nominal.Shape, obj.Nominal.Label)
+    res = measure_deviation(ps.points, nominal, obj.Alignment, obj.Tolerance, source=ps.source)
+    s = res.stats
+    al = res.alignment
+    summary = {key: s[key] for key in ("points", "max", "min", "mean", "std", "rms", "within_tolerance_pct",
+                                       "tolerance", "max_abs", "mean_abs")}
+    summary.update(
+        alignment=al.as_dict() if al is not None else {"mode": "none", "matrix": np.eye(4).tolist(),
+                                                        "rotation_deg": 0.0, "translation_mm": [0.0, 0.0, 0.0]},
+        nominal={"file": obj.Nominal.Label, "faces": nominal.n_faces, "size_mm": nominal.size,
+                 "method": "+".join(res.deviation.methods)},
+        units="mm", measured=ps.source)
+    surface = core_surface(obj.Surface) if obj.Surface is not None else None
+    write_deviation_report(folder, summary, res, nominal, ps.section, ps.section_names, surface)
+    return summary
+
+
+def export_step(obj: Any, path: str) -> None:
+    """Write the shape of ``obj`` (a BladeSurface's face) to a STEP file in mm, atomically."""
+    from .export import write_step
+
+    shape = getattr(obj, "Shape", None)
+    if shape is None or shape.isNull():
+        raise BladeReconError(f"{getattr(obj, 'Label', obj)}: nothing to export: recompute it first")
+    write_step(shape, path)

@@ -1,0 +1,119 @@
+"""Task panels for the options of the long or tunable commands (forms in resources/ui/*.ui).
+
+``accept()`` runs the same replayable step as the console would (``bladerecon.gui.commands``);
+the panels only gather options. Long steps show FreeCAD's progress bar, where Esc cancels.
+"""
+from __future__ import annotations
+
+from typing import Any
+
+import FreeCADGui
+
+from . import commands, paths
+
+__all__ = ["ReconstructPanel", "ComparePanel", "SurfaceAnalysisPanel"]
+
+
+def _load(name: str) -> Any:
+    return FreeCADGui.PySideUic.loadUi(paths.ui_file(name))
+
+
+class _Panel:
+    ui = ""
+
+    def __init__(self) -> None:
+        self.form = _load(self.ui)
+        self.result = None
+
+    def reject(self) -> bool:
+        FreeCADGui.Control.closeDialog()
+        return True
+
+    def accept(self) -> bool:
+        options = self.options()          # read the form before closing: closing deletes it
+        FreeCADGui.Control.closeDialog()
+        self.result = self.run(**options)
+        return True
+
+    def options(self) -> dict:
+        return {}
+
+    def run(self, **options: Any) -> Any:
+        raise NotImplementedError
+
+
+class ReconstructPanel(_Panel):
+    """Method and tolerance, then :func:`commands.reconstruct_surface`."""
+
+    ui = "Reconstruct"
+
+    def __init__(self, points_obj: Any) -> None:
+        super().__init__()
+        self.points = points_obj
+        self.form.source.setText(f"Points: {points_obj.Label} ({points_obj.PointCount} points, "
+                                 f"{points_obj.SectionCount} sections, {points_obj.Units})")
+
+    def options(self) -> dict:
+        return {"method": self.form.method.currentText(), "tolerance": self.form.tolerance.value()}
+
+    def run(self, **options: Any) -> Any:
+        return commands.reconstruct_surface(self.points, **options)
+
+
+class ComparePanel(_Panel):
+    """Alignment, tolerance and whether to colour the surface, then :func:`commands.compare_with_nominal`."""
+
+    ui = "Compare"
+
+    def __init__(self, measured: Any, nominal: Any, surface: Any = None) -> None:
+        super().__init__()
+        self.measured, self.nominal, self.surface = measured, nominal, surface
+        self.form.inputs.setText(f"Measured: {measured.Label}\nNominal: {nominal.Label}\n"
+                                 f"Surface: {surface.Label if surface is not None else '(none)'}")
+        self.form.useSurface.setEnabled(surface is not None)
+        self.form.useSurface.setChecked(surface is not None)
+
+    def options(self) -> dict:
+        return {"surface": self.surface if self.form.useSurface.isChecked() else None,
+                "alignment": self.form.alignment.currentText(), "tolerance": self.form.tolerance.value()}
+
+    def run(self, **options: Any) -> Any:
+        return commands.compare_with_nominal(self.measured, self.nominal, **options)
+
+
+class SurfaceAnalysisPanel(_Panel):
+    """Zebra (stripe count, direction), curvature (mean/Gaussian) or off; previewed as it changes."""
+
+    ui = "SurfaceAnalysis"
+
+    def __init__(self, surface: Any, mode: str = "Zebra") -> None:
+        super().__init__()
+        self.surface = surface
+        vobj = surface.ViewObject
+        self.previous = vobj.DisplayMode
+        self.form.mode.setCurrentText(mode)
+        self.form.stripes.setValue(vobj.ZebraStripes)
+        self.form.direction.setCurrentText(vobj.ZebraDirection)
+        self.form.curvature.setCurrentText(vobj.CurvatureKind)
+        for box in (self.form.mode, self.form.direction, self.form.curvature):
+            box.currentIndexChanged.connect(self.preview)
+        self.form.stripes.valueChanged.connect(self.preview)
+        self.preview()
+
+    def options(self) -> dict:
+        mode = self.form.mode.currentText()
+        return {"mode": None if mode == "Off" else mode, "stripes": self.form.stripes.value(),
+                "direction": self.form.direction.currentText(), "curvature": self.form.curvature.currentText()}
+
+    def preview(self, *_: Any) -> None:
+        o = self.options()
+        vobj = self.surface.ViewObject
+        vobj.ZebraStripes, vobj.ZebraDirection, vobj.CurvatureKind = o["stripes"], o["direction"], o["curvature"]
+        vobj.DisplayMode = o["mode"] or "Flat Lines"
+
+    def reject(self) -> bool:
+        self.surface.ViewObject.DisplayMode = self.previous
+        return super().reject()
+
+    def run(self, **options: Any) -> Any:
+        commands.set_surface_analysis(self.surface, **options)

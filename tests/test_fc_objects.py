@@ -1,0 +1,209 @@
+"""The document objects without a GUI: recompute chain, results against independent referees,
+failure marking, saving and reopening, STEP export and the report glue.
+
+Uses the sparse sample plan (6 sections x 65 points) so the whole chain recomputes in seconds.
+Referees: the sample blade's chord lengths (resources/sample/README.md), OpenCASCADE's own
+distances (``occ_distances``), and the ``deviation`` subcommand run on the same files.
+"""
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fc_fixtures import require_freecad
+
+FreeCAD, Part = require_freecad()
+
+from bladerecon.core.errors import BladeReconError  # noqa: E402
+from bladerecon.fc import objects as bro  # noqa: E402
+
+REPO = Path(__file__).resolve().parents[1]
+PLAN = REPO / "resources" / "sample" / "measured_plan.csv"
+NOMINAL = REPO / "resources" / "sample" / "nominal.step"
+
+
+@pytest.fixture(scope="module")
+def chain(tmp_path_factory):
+    doc = FreeCAD.newDocument("ObjectsTest")
+    points = bro.make_measured_points(doc, str(PLAN))
+    sections = bro.make_blade_sections(doc, points)
+    surface = bro.make_blade_surface(doc, points)
+    nominal = doc.addObject("Part::Feature", "Nominal")
+    nominal.Shape = Part.read(str(NOMINAL))
+    analysis = bro.make_deviation_analysis(doc, points, nominal, surface, tolerance=0.03)
+    doc.recompute()
+    yield doc, points, sections, surface, nominal, analysis
+    FreeCAD.closeDocument(doc.Name)
+
+
+def test_chain_recomputes(chain):
+    doc, points, sections, surface, nominal, analysis = chain
+    for obj in (points, sections, surface, analysis):
+        assert obj.Status == "ok" and "Invalid" not in obj.State, (obj.Name, obj.Status)
+    assert points.PointCount == 390 and points.SectionCount == 6 and points.Units == "mm"
+    assert len(points.Shape.Vertexes) == 390
+    assert surface.Shape.Faces[0].Surface.__class__.__name__ == "BSplineSurface"
+    assert surface.VPoles == 6 and surface.UDegree == 3
+
+
+def test_sections_against_the_sample_blade(chain):
+    _, _, sections, _, _, _ = chain
+    # chord runs linearly 56 -> 52 mm hub to tip (resources/sample/README.md)
+    expected = 56.0 - 4.0 * np.arange(6) / 5
+    np.testing.assert_allclose(sections.ChordLengths, expected, atol=0.05)
+    le = np.array([tuple(v) for v in sections.LeadingEdges])
+    np.testing.assert_allclose(le[:, 2], 20.0 * np.arange(6), atol=0.01)     # in the section planes
+    assert len(sections.Shape.Edges) == 6 and len(sections.Shape.Vertexes) >= 12
+
+
+def test_stats_equal_the_cli(chain):
+    *_, analysis = chain
+    proc = subprocess.run([sys.executable, "-m", "bladerecon", "deviation", str(PLAN), "--nominal", str(NOMINAL),
+                           "--json", "--quiet"], cwd=str(REPO), capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    cli = json.loads(proc.stdout)
+    ours = bro.DeviationAnalysis.stats(analysis)
+    for key, value in ours.items():
+        assert value == pytest.approx(cli[key], rel=1e-9, abs=1e-12), key
+    assert len(analysis.Deviations) == cli["points"]
+
+
+def test_surface_map_against_occ(chain):
+    """The colour map's per-vertex deviations equal OpenCASCADE's signed distances to the nominal."""
+    from bladerecon.fc.occ_measure import occ_distances
+
+    *_, nominal, analysis = chain
+    nu, nv = analysis.SurfaceGridSize
+    grid = np.array([tuple(v) for v in analysis.SurfaceGrid])
+    dev = np.array(analysis.SurfaceDeviations)
+    assert grid.shape == (nu * nv, 3) and dev.shape == (nu * nv,)
+    rows = np.random.default_rng(0).choice(len(grid), 150, replace=False)
+    occ = occ_distances(grid[rows], nominal.Shape, signed=True)
+    np.testing.assert_allclose(dev[rows], occ, atol=2e-5)
+    assert dev.std() > 1e-4          # the map has something to show
+
+
+def test_failed_recompute_keeps_the_previous_result():
+    doc = FreeCAD.newDocument("Fail")
+    try:
+        points = bro.make_measured_points(doc, str(PLAN))
+        surface = bro.make_blade_surface(doc, points)
+        doc.recompute()
+        area, poles = surface.Shape.Area, surface.UPoles
+        surface.Tolerance = -1.0
+        doc.recompute()
+        assert surface.Status.startswith("failed: ") and "Tolerance" in surface.Status
+        assert "Invalid" in surface.State
+        assert surface.Shape.Area == pytest.approx(area) and surface.UPoles == poles
+        surface.Tolerance = 0.0
+        doc.recompute()
+        assert surface.Status == "ok" and "Invalid" not in surface.State
+    finally:
+        FreeCAD.closeDocument(doc.Name)
+
+
+def test_bad_file_raises_before_adding(tmp_path):
+    doc = FreeCAD.newDocument("BadFile")
+    try:
+        with pytest.raises(BladeReconError, match="missing.csv"):
+            bro.make_measured_points(doc, str(tmp_path / "missing.csv"))
+        assert len(doc.Objects) == 0
+    finally:
+        FreeCAD.closeDocument(doc.Name)
+
+
+def test_save_and_reopen_keeps_results(chain, tmp_path):
+    doc, points, _, surface, _, analysis = chain
+    before = bro.DeviationAnalysis.stats(analysis)
+    dev = list(analysis.Deviations)
+    path = tmp_path / "blade.FCStd"
+    doc.saveCopy(str(path))
+    # the proxies' pickled state is tiny: the results live in properties
+    with zipfile.ZipFile(path) as z:
+        xml = z.read("Document.xml").decode()
+    assert "bladerecon.fc.objects" in xml
+    for chunk in xml.split('<Python value="')[1:]:
+        assert len(chunk.split('"', 1)[0]) < 200
+    other = FreeCAD.openDocument(str(path))
+    try:
+        a = other.getObject(analysis.Name)
+        # FCStd keeps 16 significant digits of a float property
+        assert bro.DeviationAnalysis.stats(a) == pytest.approx(before, rel=1e-14)
+        np.testing.assert_allclose(a.Deviations, dev, rtol=1e-14)
+        assert bro.is_type(a, "DeviationAnalysis") and bro.is_type(other.getObject(points.Name), "MeasuredPoints")
+        s = other.getObject(surface.Name)
+        assert s.Shape.Area == pytest.approx(surface.Shape.Area) and s.UPoles == surface.UPoles
+        for obj in other.Objects:
+            obj.touch()
+        other.recompute()
+        assert bro.DeviationAnalysis.stats(a) == pytest.approx(before, rel=1e-12)
+    finally:
+        FreeCAD.closeDocument(other.Name)
+
+
+def test_export_step_round_trip(chain, tmp_path):
+    from bladerecon.fc.convert import from_part_surface
+
+    surface = chain[3]
+    path = tmp_path / "surface.step"
+    bro.export_step(surface, str(path))
+    back = Part.read(str(path))
+    a, b = from_part_surface(surface.Shape.Faces[0].Surface), from_part_surface(back.Faces[0].Surface)
+    np.testing.assert_allclose(b.poles, a.poles, atol=1e-9)
+
+
+def test_report_summary_matches_the_analysis(chain, tmp_path, monkeypatch):
+    """write_analysis_report hands the deviation report what the CLI would (the plots are tested there)."""
+    import bladerecon.deviation_report as dr
+
+    *_, analysis = chain
+    seen = {}
+    monkeypatch.setattr(dr, "write_deviation_report",
+                        lambda folder, summary, result, nominal, section, names, surface=None:
+                        seen.update(summary=summary, n=len(result.points), surface=surface, names=names))
+    summary = bro.write_analysis_report(analysis, str(tmp_path / "report"))
+    assert summary is seen["summary"] and seen["n"] == analysis.PointCount and seen["surface"] is not None
+    for key, value in bro.DeviationAnalysis.stats(analysis).items():
+        assert summary[key] == pytest.approx(value, rel=1e-12), key
+    assert summary["alignment"]["mode"] == "none" and summary["units"] == "mm"
+    with pytest.raises(BladeReconError, match="does not exist"):
+        bro.write_analysis_report(analysis, str(tmp_path / "no" / "such" / "report"))
+
+
+def test_surface_follows_its_points(tmp_path):
+    """Moving the measured points moves the surface on the next recompute (the link is a dependency)."""
+    doc = FreeCAD.newDocument("Follow")
+    try:
+        points = bro.make_measured_points(doc, str(PLAN))
+        surface = bro.make_blade_surface(doc, points)
+        doc.recompute()
+        x0 = surface.Shape.BoundBox.XMin
+        points.Points = [v + FreeCAD.Vector(0.5, 0.0, 0.0) for v in points.Points]
+        doc.recompute()
+        assert surface.Shape.BoundBox.XMin == pytest.approx(x0 + 0.5, abs=1e-6)
+    finally:
+        FreeCAD.closeDocument(doc.Name)
+
+
+def test_importer_module(tmp_path):
+    """FreeCAD's importer API (File > Open / Import), registered in Init.py."""
+    from bladerecon.fc import importer
+
+    assert "bladerecon.fc.importer" in (REPO / "Init.py").read_text()
+    doc = importer.open(str(PLAN))
+    try:
+        obj = doc.Objects[0]
+        assert bro.is_type(obj, "MeasuredPoints") and obj.PointCount == 390 and obj.Status == "ok"
+        importer.insert(str(PLAN), doc.Name)
+        assert len(doc.Objects) == 2
+        with pytest.raises(BladeReconError, match="missing.csv"):
+            importer.insert(str(tmp_path / "missing.csv"), doc.Name)
+        assert len(doc.Objects) == 2
+    finally:
+        FreeCAD.closeDocument(doc.Name)
