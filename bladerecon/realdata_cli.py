@@ -1,0 +1,188 @@
+"""Options of ``reconstruct`` for real measurement data (issue 6): slicing, fairing, non-grid.
+
+Kept out of cli.py so that ``build_parser`` / ``run_reconstruct`` change by a few lines:
+
+* ``--slice N`` / ``--slice-at z1,z2,..`` / ``--slice-radii r1,r2,..`` with ``--slab MM``:
+  the input is an unordered cloud, cut into sections (:mod:`bladerecon.core.slicing`);
+* ``--fair [--fair-threshold MM] [--fair-limit MM]``: bad points of every section replaced
+  (:mod:`bladerecon.core.fairing`), reported in the summary and in ``faired_points.csv``;
+* ``--method approximate --poles NUxNV``: seed 003's non-grid hierarchical fit
+  (:mod:`bladerecon.core.nongrid`).
+
+Units: mm.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+
+import numpy as np
+
+from .core.errors import BladeReconError
+
+__all__ = ["add_options", "read_input", "apply_fairing", "write_fairing_csv", "fairness_summary"]
+
+
+def add_options(r: argparse.ArgumentParser) -> None:
+    g = r.add_argument_group("real data (unordered clouds, bad points, non-grid rows)")
+    g.add_argument("--poles", metavar="NUxNV",
+                   help="with --method approximate: seed 003 non-grid fit with this many poles around x along "
+                        "the span, e.g. 24x9")
+    g.add_argument("--fair", action="store_true",
+                   help="replace bad points (farther than --fair-threshold from a fair fit) of every section by "
+                        "points on an auxiliary cubic (seed 001 §1.1); all are reported")
+    g.add_argument("--fair-threshold", type=float, metavar="MM", default=None,
+                   help="with --fair: distance from the fair fit that makes a point bad (default 0.003)")
+    g.add_argument("--fair-limit", type=float, metavar="MM", default=None,
+                   help="with --fair: refuse when a replacement would move a point farther (default 0.5)")
+    g.add_argument("--slice", type=int, metavar="N", help="input is an unordered cloud: N planes along --slice-axis")
+    g.add_argument("--slice-at", metavar="Z1,Z2,..", help="unordered cloud: planes at these heights (mm)")
+    g.add_argument("--slice-radii", metavar="R1,R2,..",
+                   help="unordered cloud: cylinders of these radii (mm) about --slice-axis through the origin")
+    g.add_argument("--slice-axis", choices=("x", "y", "z"), default="z", help="plane normal / rotor axis (default z)")
+    g.add_argument("--slab", type=float, metavar="MM",
+                   help="width of each slice's slab (default a quarter of the smallest gap between slices)")
+    g.add_argument("--cloud-scale", type=float, default=1.0, metavar="F",
+                   help="multiply the cloud's coordinates by F (1000 for a file in metres)")
+
+
+def _floats(text: str, what: str) -> np.ndarray:
+    try:
+        vals = np.array([float(x) for x in text.split(",") if x.strip()])
+    except ValueError:
+        raise BladeReconError(f"{what} {text!r}: give comma-separated numbers in mm, e.g. 10,20,30") from None
+    if vals.size < 2:
+        raise BladeReconError(f"{what} {text!r}: need at least 2 slices for a surface")
+    return vals
+
+
+def slicing_requested(args: argparse.Namespace) -> bool:
+    return any(getattr(args, k, None) is not None for k in ("slice", "slice_at", "slice_radii"))
+
+
+def check_options(args: argparse.Namespace) -> None:
+    if sum(getattr(args, k, None) is not None for k in ("slice", "slice_at", "slice_radii")) > 1:
+        raise BladeReconError("give one of --slice, --slice-at, --slice-radii")
+    if args.slab is not None and not slicing_requested(args):
+        raise BladeReconError("--slab applies to slicing a cloud: add --slice, --slice-at or --slice-radii")
+    if (args.fair_threshold is not None or args.fair_limit is not None) and not args.fair:
+        raise BladeReconError("--fair-threshold / --fair-limit apply with --fair: add --fair")
+    if args.poles is not None and args.method != "approximate":
+        raise BladeReconError("--poles applies to --method approximate (seed 003 non-grid fit): add --method approximate")
+    if args.poles is not None and args.tolerance is not None:
+        raise BladeReconError("--poles fixes the pole count; leave out --tolerance")
+    for name in ("fair_threshold", "fair_limit", "slab"):
+        v = getattr(args, name)
+        if v is not None and not v > 0:
+            raise BladeReconError(f"--{name.replace('_', '-')} must be a positive distance in mm, got {v}")
+
+
+def read_input(args: argparse.Namespace):
+    """The input as a PointSet: the file itself, or the sections sliced out of a cloud.
+
+    Returns ``(pointset, slicing_summary or None)``.
+    """
+    from .core.readers import read_points
+    from .core import slicing
+
+    if not slicing_requested(args):
+        return read_points(args.input), None
+    axis = np.eye(3)["xyz".index(args.slice_axis)]
+    P, lines = slicing.read_cloud(args.input, args.cloud_scale)
+    if args.slice_radii is not None:
+        radii = _floats(args.slice_radii, "--slice-radii")
+        slices = slicing.slice_cylinders(P, radii, axis, slab=args.slab)
+        kind = "cylinders"
+    else:
+        pos = (_floats(args.slice_at, "--slice-at") if args.slice_at is not None
+               else slicing.plane_positions(P, axis, args.slice))
+        slices = slicing.slice_planes(P, pos, axis, slab=args.slab)
+        kind = "planes"
+    ps = slicing.slices_to_pointset(slices, lines, args.input)
+    summary = {"kind": kind, "axis": args.slice_axis, "cloud_points": int(P.shape[0]),
+               "positions_mm": [s.position for s in slices], "points": [int(len(s.points)) for s in slices],
+               "outliers": [[k, int(lines[i])] for k, s in enumerate(slices) for i in s.outliers],
+               "slab_mm": args.slab if args.slab is not None else slicing._default_slab(
+                   [s.position for s in slices])}
+    return ps, summary
+
+
+def _file_index(lines: np.ndarray) -> np.ndarray:
+    """0-based index of each point within its section in file order (from its line number)."""
+    return np.argsort(np.argsort(lines, kind="stable"), kind="stable")
+
+
+def apply_fairing(sections, args: argparse.Namespace):
+    """Fair every section; returns ``(point lists, summary dict, table for faired_points.csv)``."""
+    from .core.fairing import DEFAULT_MAX_MOVE, DEFAULT_THRESHOLD, fair_fit, fair_section
+    from .core.fairness import count_inflections
+
+    thr = args.fair_threshold if args.fair_threshold is not None else DEFAULT_THRESHOLD
+    limit = args.fair_limit if args.fair_limit is not None else DEFAULT_MAX_MOVE
+    from .core.fitting import interpolate_closed_curve
+    from .core.section_curves import choose_method
+
+    axis = np.asarray(sections.span_axis)
+    method = args.method
+    if method == "auto":
+        method = choose_method([s.points for s in sections.sections]).method
+    # inflections of the section curve the reconstruction will use: through the points when
+    # interpolating, the fair least-squares fit when smoothing
+    curve_of = (lambda p: interpolate_closed_curve(p)) if method == "interpolate" else (lambda p: fair_fit(p)[0])
+    pts, replaced, before, after, rows = [], [], [], [], []
+    for k, sec in enumerate(sections.sections):
+        f = fair_section(sec.points, thr, limit, name=sec.name)
+        pts.append(f.faired)
+        before.append(count_inflections(curve_of(sec.points), axis))
+        after.append(count_inflections(curve_of(f.faired), axis) if f.bad.any() else before[-1])
+        idx = _file_index(sec.lines)
+        for i in np.flatnonzero(f.bad):
+            replaced.append([k, int(idx[i]), float(f.displacement[i])])
+        rows.append(np.column_stack([np.full(len(sec.points), k), sec.lines, idx, sec.points, f.faired,
+                                     f.displacement, f.bad.astype(int), f.distance]))
+    replaced.sort(key=lambda r: (r[0], r[1]))
+    summary = {"threshold_mm": thr, "limit_mm": limit, "replaced": replaced,
+               "inflections_before": before, "inflections_after": after,
+               "inflections_measured_on": ("periodic interpolation of the section points" if method == "interpolate"
+                                           else "fair least-squares fit of each section (core.fairing.fair_fit)")}
+    return pts, summary, np.concatenate(rows)
+
+
+def write_fairing_csv(folder: str, table: np.ndarray) -> None:
+    """Original beside faired points: nothing is silently dropped."""
+    path = os.path.join(folder, "faired_points.csv")
+    np.savetxt(path, table, delimiter=",",
+               fmt=["%d", "%d", "%d"] + ["%.6f"] * 7 + ["%d", "%.6f"],
+               header="section,line,index_in_section,x,y,z,x_faired,y_faired,z_faired,displacement,bad,"
+                      "distance_to_fair_fit", comments="")
+
+
+def fairness_summary(surface, sections_pts: list[np.ndarray], span_axis) -> dict:
+    """Seed 004's fairness criteria as numbers for the summary (sections and surface)."""
+    from .core.fairing import fair_fit
+    from .core.fairness import curve_fairness, surface_fairness
+
+    secs = [curve_fairness(fair_fit(p)[0], span_axis) for p in sections_pts]
+    return {"sections": {"inflections": [s["inflections"] for s in secs],
+                         "strain_energy_per_mm": [s["strain_energy"] for s in secs],
+                         "max_curvature_jump_per_mm": [s["max_curvature_jump"] for s in secs]},
+            "surface": surface_fairness(surface, span_axis)}
+
+
+def reconstruct_nongrid(pts: list[np.ndarray], span_axis, poles_text: str):
+    """Seed 003's non-grid fit for the CLI, shaped like a Reconstruction for the summary."""
+    from types import SimpleNamespace
+
+    from .core.nongrid import fit_nongrid, parse_poles
+    from .core.section_curves import MethodChoice
+
+    poles = parse_poles(poles_text)
+    fit = fit_nongrid(pts, np.asarray(span_axis), poles, closed=True)
+    counts = [len(p) for p in pts]
+    why = (f"seed 003 non-grid fit: rows of {min(counts)}-{max(counts)} points, least-squares row curves "
+           f"resampled at {fit.grid.shape[1]} common parameters, hierarchical least squares "
+           f"{poles[0]}x{poles[1]} poles")
+    choice = MethodChoice("approximate-nongrid", why, None, None, None)
+    return SimpleNamespace(surface=fit.surface, choice=choice, tolerance=None,
+                           refit_error=float(fit.row_residual.max()), point_u=None, point_v=None,
+                           seconds=fit.seconds)
