@@ -90,8 +90,7 @@ def knot_curvature_jumps(curve: BSplineCurve) -> np.ndarray:
     inner = k[1:-1] if not curve.periodic else k[:-1]
     if inner.size == 0:
         return np.zeros(0)
-    span = np.diff(k).min()
-    delta = 1e-9 * (k[-1] - k[0]) + 0.0 * span
+    delta = 1e-9 * (k[-1] - k[0])      # one-sided limits, well inside the neighbouring spans
     lo, hi = curve.domain
 
     def kappa(t):
@@ -139,7 +138,6 @@ def curve_fairness(curve: BSplineCurve, axis: np.ndarray) -> dict:
 def surface_fairness(surface: BSplineSurface, span_axis: np.ndarray, n_sections: int = 11) -> dict:
     """Seed 004's surface criteria as numbers: inflections of the u mesh curves (iso-v
     sections), strain energy per mesh curve, Gaussian-curvature evenness."""
-    from .surface import interpolate_grid  # noqa: F401  (keeps import order light)
     from .bspline import evaluate_surface
     from .fitting import interpolate_closed_curve, interpolate_curve
 

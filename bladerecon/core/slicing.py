@@ -93,11 +93,18 @@ def _default_slab(positions: np.ndarray) -> float:
     return 0.25 * float(np.diff(p).min()) if p.size > 1 else 1.0
 
 
-def _groups(points: np.ndarray, link: float) -> tuple[np.ndarray, np.ndarray]:
-    """Connected groups (labels, sizes) under the link distance ``link`` x median NN distance."""
+def _groups(points: np.ndarray, link: float, extent_share: float = 0.08) -> tuple[np.ndarray, np.ndarray]:
+    """Connected groups (labels, sizes): points closer than the link distance are joined.
+
+    The link distance is the larger of ``link`` x the median nearest-neighbour distance and
+    ``extent_share`` of the slab's size (bounding-box diagonal): randomly spaced scan points
+    leave gaps of many median spacings along a section, but not of 8 % of the blade, and
+    neighbouring blades stand a passage width apart.
+    """
     tree = cKDTree(points)
     d, _ = tree.query(points, 2)
-    r = link * float(np.median(d[:, 1]))
+    size = float(np.linalg.norm(np.ptp(points, axis=0)))
+    r = max(link * float(np.median(d[:, 1])), extent_share * size)
     pairs = tree.query_pairs(r, output_type="ndarray")
     import scipy.sparse as sp
     n = points.shape[0]
