@@ -118,6 +118,8 @@ def run_reconstruct(args: argparse.Namespace) -> dict:
     else:
         rec = reconstruct(pts, sections.span_axis, method=args.method, tolerance=args.tolerance,
                           first_point_is_measured=measured_start)
+    if args.surface == "local-bicubic":
+        rec = realdata.local_bicubic(rec, args.patches_around)
     measured = np.concatenate(pts)
     proj = project_points_to_surface(rec.surface, measured, rec.point_u, rec.point_v)
     t_fit = time.perf_counter()
@@ -150,9 +152,8 @@ def run_reconstruct(args: argparse.Namespace) -> dict:
         say("loading FreeCAD")
         import_freecad()
     if args.output:
-        from .fc.convert import make_face
-        from .fc.export import make_solid, write_step
-        shape = make_solid(surf) if args.solid else make_face(surf)
+        from .fc.export import write_step
+        shape = realdata.make_shape(surf, args)
         write_step(shape, args.output)
         summary["output"] = {"step": args.output, "solid": bool(args.solid)}
         say(f"wrote {args.output}")

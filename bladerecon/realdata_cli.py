@@ -28,6 +28,11 @@ def add_options(r: argparse.ArgumentParser) -> None:
     g.add_argument("--poles", metavar="NUxNV",
                    help="with --method approximate: seed 003 non-grid fit with this many poles around x along "
                         "the span, e.g. 24x9")
+    g.add_argument("--surface", choices=("bspline", "local-bicubic"), default="bspline",
+                   help="bspline (default): one C2 cubic B-spline face; local-bicubic: seed 004's local bicubic "
+                        "interpolation, C1 Bézier patches, exported as a sewn shell")
+    g.add_argument("--patches-around", type=int, default=160, metavar="N",
+                   help="with --surface local-bicubic: grid points (patches) around each section (default 160)")
     g.add_argument("--fair", action="store_true",
                    help="replace bad points (farther than --fair-threshold from a fair fit) of every section by "
                         "points on an auxiliary cubic (seed 001 §1.1); all are reported")
@@ -42,6 +47,9 @@ def add_options(r: argparse.ArgumentParser) -> None:
     g.add_argument("--slice-axis", choices=("x", "y", "z"), default="z", help="plane normal / rotor axis (default z)")
     g.add_argument("--slab", type=float, metavar="MM",
                    help="width of each slice's slab (default a quarter of the smallest gap between slices)")
+    g.add_argument("--slab-keep", action="store_true",
+                   help="keep slab points where they are instead of moving them onto the cutting plane/cylinder "
+                        "(for surface-mesh clouds whose nodes lie in rows: no slide along a twisted surface)")
     g.add_argument("--cloud-scale", type=float, default=1.0, metavar="F",
                    help="multiply the cloud's coordinates by F (1000 for a file in metres)")
 
@@ -63,7 +71,7 @@ def slicing_requested(args: argparse.Namespace) -> bool:
 def check_options(args: argparse.Namespace) -> None:
     if sum(getattr(args, k, None) is not None for k in ("slice", "slice_at", "slice_radii")) > 1:
         raise BladeReconError("give one of --slice, --slice-at, --slice-radii")
-    if args.slab is not None and not slicing_requested(args):
+    if (args.slab is not None or args.slab_keep) and not slicing_requested(args):
         raise BladeReconError("--slab applies to slicing a cloud: add --slice, --slice-at or --slice-radii")
     if (args.fair_threshold is not None or args.fair_limit is not None) and not args.fair:
         raise BladeReconError("--fair-threshold / --fair-limit apply with --fair: add --fair")
@@ -71,6 +79,14 @@ def check_options(args: argparse.Namespace) -> None:
         raise BladeReconError("--poles applies to --method approximate (seed 003 non-grid fit): add --method approximate")
     if args.poles is not None and args.tolerance is not None:
         raise BladeReconError("--poles fixes the pole count; leave out --tolerance")
+    if args.surface == "local-bicubic":
+        if args.poles is not None or args.pairing == "angle":
+            raise BladeReconError("--surface local-bicubic builds on the anchored sections: leave out --poles / --pairing angle")
+        if args.solid:
+            raise BladeReconError("--surface local-bicubic exports a sewn shell of patches; --solid needs the single "
+                                  "B-spline face: drop one of them")
+        if args.patches_around < 8:
+            raise BladeReconError(f"--patches-around {args.patches_around}: need at least 8")
     for name in ("fair_threshold", "fair_limit", "slab"):
         v = getattr(args, name)
         if v is not None and not v > 0:
@@ -91,17 +107,18 @@ def read_input(args: argparse.Namespace):
     P, lines = slicing.read_cloud(args.input, args.cloud_scale)
     if args.slice_radii is not None:
         radii = _floats(args.slice_radii, "--slice-radii")
-        slices = slicing.slice_cylinders(P, radii, axis, slab=args.slab)
+        slices = slicing.slice_cylinders(P, radii, axis, slab=args.slab, project=not args.slab_keep)
         kind = "cylinders"
     else:
         pos = (_floats(args.slice_at, "--slice-at") if args.slice_at is not None
                else slicing.plane_positions(P, axis, args.slice))
-        slices = slicing.slice_planes(P, pos, axis, slab=args.slab)
+        slices = slicing.slice_planes(P, pos, axis, slab=args.slab, project=not args.slab_keep)
         kind = "planes"
     ps = slicing.slices_to_pointset(slices, lines, args.input)
     summary = {"kind": kind, "axis": args.slice_axis, "cloud_points": int(P.shape[0]),
                "positions_mm": [s.position for s in slices], "points": [int(len(s.points)) for s in slices],
                "outliers": [[k, int(lines[i])] for k, s in enumerate(slices) for i in s.outliers],
+               "projected_onto_cut": not args.slab_keep,
                "slab_mm": args.slab if args.slab is not None else slicing._default_slab(
                    [s.position for s in slices])}
     return ps, summary
@@ -186,3 +203,37 @@ def reconstruct_nongrid(pts: list[np.ndarray], span_axis, poles_text: str):
     return SimpleNamespace(surface=fit.surface, choice=choice, tolerance=None,
                            refit_error=float(fit.row_residual.max()), point_u=None, point_v=None,
                            seconds=fit.seconds)
+
+
+def local_bicubic(rec, n_around: int):
+    """Seed 004's local bicubic surface through a grid sampled on the anchored section curves.
+
+    The grid: every section curve at ``n_around`` common parameters (LE/TE anchored, as for
+    the B-spline surface); u parameters centripetal averaged over the sections, v those of
+    the reconstruction. Returns a Reconstruction-like object for the summary.
+    """
+    from types import SimpleNamespace
+
+    from .core.bspline import evaluate_curve
+    from .core.local_bicubic import local_bicubic_surface
+    from .core.section_curves import MethodChoice
+    from .core.surface import closed_grid_parameters, s_to_t
+
+    s = np.arange(n_around) / n_around
+    grid = np.stack([evaluate_curve(a.curve, s_to_t(a, s, rec.s_te)) for a in rec.anchored])
+    surf = local_bicubic_surface(grid, closed_grid_parameters(grid), np.asarray(rec.v_params))
+    why = (f"seed 004 local bicubic interpolation of {grid.shape[0]} x {n_around} points on the "
+           f"{rec.choice.method} section curves: C1 Bézier patches")
+    choice = MethodChoice("local-bicubic", why, rec.choice.noise_mm, rec.choice.min_spacing_mm, rec.choice.tangent_noise)
+    return SimpleNamespace(surface=surf, choice=choice, tolerance=rec.tolerance, refit_error=rec.refit_error,
+                           point_u=None, point_v=None, seconds=rec.seconds)
+
+
+def make_shape(surface, args):
+    """The exported shape: the B-spline face (or solid), or the sewn shell of Bézier patches."""
+    if args.surface == "local-bicubic":
+        from .fc.patches import make_patch_shell
+        return make_patch_shell(surface)
+    from .fc.convert import make_face
+    from .fc.export import make_solid
+    return make_solid(surface) if args.solid else make_face(surface)

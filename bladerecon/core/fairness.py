@@ -22,6 +22,7 @@ __all__ = [
     "strain_energy",
     "knot_curvature_jumps",
     "gaussian_evenness",
+    "surface_knot_curvature_jumps",
     "curve_fairness",
     "surface_fairness",
 ]
@@ -128,6 +129,35 @@ def gaussian_evenness(surface: BSplineSurface, n_u: int = 200, n_v: int = 40) ->
             "unevenness": jump / max(rms, 1e-300)}
 
 
+def surface_knot_curvature_jumps(surface: BSplineSurface, samples: int = 25) -> dict:
+    """Largest jump of the principal curvatures (1/mm) across the interior knot lines
+    (seed 004 surface criterion 3): ~0 for a C2 cubic with simple knots, finite for C1
+    patches (double knots)."""
+    from .surface_analysis import surface_curvature
+
+    out = {}
+    for name, knots, periodic, other in (("u", surface.u_knots, surface.u_periodic, surface.v_domain),
+                                         ("v", surface.v_knots, surface.v_periodic, surface.u_domain)):
+        k = np.asarray(knots, float)
+        inner = k[:-1] if periodic else k[1:-1]
+        if inner.size == 0:
+            out[name] = 0.0
+            continue
+        delta = 1e-8 * (k[-1] - k[0])
+        lo, hi = other
+        w = lo + (hi - lo) * (np.arange(samples) + 0.5) / samples
+        K, W = np.meshgrid(inner, w, indexing="ij")
+        K, W = K.ravel(), W.ravel()
+        if name == "u":
+            a = surface_curvature(surface, K + delta, W)
+            b = surface_curvature(surface, np.where(K - delta < k[0], K - delta + (k[-1] - k[0]), K - delta), W)
+        else:
+            a = surface_curvature(surface, W, K + delta)
+            b = surface_curvature(surface, W, K - delta)
+        out[name] = float(max(np.abs(a.k1 - b.k1).max(), np.abs(a.k2 - b.k2).max()))
+    return out
+
+
 def curve_fairness(curve: BSplineCurve, axis: np.ndarray) -> dict:
     """Inflections, strain energy (1/mm) and the largest knot curvature jump (1/mm) of a curve."""
     jumps = knot_curvature_jumps(curve)
@@ -151,4 +181,6 @@ def surface_fairness(surface: BSplineSurface, span_axis: np.ndarray, n_sections:
         c = interpolate_closed_curve(pts) if surface.u_periodic else interpolate_curve(pts)
         infl.append(count_inflections(c, span_axis))
         energy.append(strain_energy(c))
-    return {"mesh_inflections": infl, "mesh_strain_energy": energy, **gaussian_evenness(surface)}
+    jumps = surface_knot_curvature_jumps(surface)
+    return {"mesh_inflections": infl, "mesh_strain_energy": energy, **gaussian_evenness(surface),
+            "max_principal_curvature_jump_u": jumps["u"], "max_principal_curvature_jump_v": jumps["v"]}
