@@ -119,7 +119,7 @@ def run_reconstruct(args: argparse.Namespace) -> dict:
         rec = reconstruct(pts, sections.span_axis, method=args.method, tolerance=args.tolerance,
                           first_point_is_measured=measured_start)
     if args.surface == "local-bicubic":
-        rec = realdata.local_bicubic(rec, args.patches_around)
+        rec = realdata.local_bicubic(rec, args.patches_around, args.fair_surface, pts)
     measured = np.concatenate(pts)
     proj = project_points_to_surface(rec.surface, measured, rec.point_u, rec.point_v)
     t_fit = time.perf_counter()
@@ -143,6 +143,8 @@ def run_reconstruct(args: argparse.Namespace) -> dict:
         summary["slicing"] = slicing
     if fairing is not None:
         summary["fairing"] = fairing
+    if getattr(rec, "surface_fairing", None) is not None:
+        summary["surface_fairing"] = rec.surface_fairing
     summary["fairness"] = realdata.fairness_summary(surf, pts, sections.span_axis)
 
     t_exp0 = time.perf_counter()

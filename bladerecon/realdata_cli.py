@@ -33,6 +33,9 @@ def add_options(r: argparse.ArgumentParser) -> None:
                         "interpolation, C1 Bézier patches, exported as a sewn shell")
     g.add_argument("--patches-around", type=int, default=160, metavar="N",
                    help="with --surface local-bicubic: grid points (patches) around each section (default 160)")
+    g.add_argument("--fair-surface", action="store_true",
+                   help="with --surface local-bicubic: alternate fairing of the u and v mesh curves of the grid "
+                        "until both are fair, then rebuild regions farther than 0.02 mm from the points (seed 004)")
     g.add_argument("--fair", action="store_true",
                    help="replace bad points (farther than --fair-threshold from a fair fit) of every section by "
                         "points on an auxiliary cubic (seed 001 §1.1); all are reported")
@@ -79,6 +82,8 @@ def check_options(args: argparse.Namespace) -> None:
         raise BladeReconError("--poles applies to --method approximate (seed 003 non-grid fit): add --method approximate")
     if args.poles is not None and args.tolerance is not None:
         raise BladeReconError("--poles fixes the pole count; leave out --tolerance")
+    if args.fair_surface and args.surface != "local-bicubic":
+        raise BladeReconError("--fair-surface works on the grid of --surface local-bicubic: add it")
     if args.surface == "local-bicubic":
         if args.poles is not None or args.pairing == "angle":
             raise BladeReconError("--surface local-bicubic builds on the anchored sections: leave out --poles / --pairing angle")
@@ -205,7 +210,7 @@ def reconstruct_nongrid(pts: list[np.ndarray], span_axis, poles_text: str):
                            seconds=fit.seconds)
 
 
-def local_bicubic(rec, n_around: int):
+def local_bicubic(rec, n_around: int, fair: bool = False, measured: list[np.ndarray] | None = None):
     """Seed 004's local bicubic surface through a grid sampled on the anchored section curves.
 
     The grid: every section curve at ``n_around`` common parameters (LE/TE anchored, as for
@@ -221,12 +226,50 @@ def local_bicubic(rec, n_around: int):
 
     s = np.arange(n_around) / n_around
     grid = np.stack([evaluate_curve(a.curve, s_to_t(a, s, rec.s_te)) for a in rec.anchored])
-    surf = local_bicubic_surface(grid, closed_grid_parameters(grid), np.asarray(rec.v_params))
+    report = None
+    if fair:
+        from .core.surface_fairing import fair_grid_alternating
+        g = fair_grid_alternating(grid)
+        if not g.converged:
+            raise BladeReconError(
+                f"surface fairing did not settle in {g.passes} passes ({g.replaced_u} section points replaced): "
+                f"a grid of {n_around} points around is too coarse for the fairing threshold; raise --patches-around")
+        grid = g.grid
+        report = {"passes": g.passes, "converged": g.converged, "v_mesh_curves_faired": g.v_faired, "replaced_v_mesh_points": g.replaced_v,
+                  "replaced_u_mesh_points": g.replaced_u, "max_move_mm": float(g.moved.max())}
+    u = closed_grid_parameters(grid)
+    v = np.asarray(rec.v_params)
+    surf = local_bicubic_surface(grid, u, v)
+    if fair and measured is not None:
+        surf, repaired = _repair(surf, grid, u, v, np.concatenate(measured))
+        report["repaired_grid_points"] = repaired
     why = (f"seed 004 local bicubic interpolation of {grid.shape[0]} x {n_around} points on the "
            f"{rec.choice.method} section curves: C1 Bézier patches")
     choice = MethodChoice("local-bicubic", why, rec.choice.noise_mm, rec.choice.min_spacing_mm, rec.choice.tangent_noise)
     return SimpleNamespace(surface=surf, choice=choice, tolerance=rec.tolerance, refit_error=rec.refit_error,
-                           point_u=None, point_v=None, seconds=rec.seconds)
+                           point_u=None, point_v=None, seconds=rec.seconds, surface_fairing=report)
+
+
+def _repair(surf, grid, u, v, measured):
+    """Seed 004's auxiliary-surface step: cells with a measured point > 0.02 mm off are rebuilt."""
+    from .core.local_bicubic import local_bicubic_surface
+    from .core.projection import project_points_to_surface
+    from .core.surface_fairing import REPAIR_THRESHOLD, repair_regions
+
+    pr = project_points_to_surface(surf, measured)
+    S, N, _ = grid.shape
+    k = np.clip(np.searchsorted(np.concatenate([u, [1.0]]), pr.u, side="right") - 1, 0, N - 1)
+    j = np.clip(np.searchsorted(v, pr.v, side="right") - 1, 0, S - 2)
+    err = np.zeros((S - 1, N))
+    np.maximum.at(err, (j, k), pr.distance)
+    if not (err > REPAIR_THRESHOLD).any():
+        return surf, 0
+    new, replaced = repair_regions(grid, err)
+    rebuilt = local_bicubic_surface(new, u, v)
+    if project_points_to_surface(rebuilt, measured).distance.max() > pr.distance.max():
+        raise BladeReconError(f"the region repair (seed 004) made the fit worse ({int(replaced.sum())} grid points "
+                              "rebuilt): leave out --fair-surface, or fair the sections first with --fair")
+    return rebuilt, int(replaced.sum())
 
 
 def make_shape(surface, args):

@@ -91,3 +91,19 @@ def test_slice_the_rotor67_cloud_by_cylinders(tmp_path):
     assert s["input"]["sections"] == 7 and min(s["slicing"]["points"]) >= 100
     r = run("reconstruct", R67_CLOUD, "--cloud-scale", "1000", "--slice-radii", "150,200", "--slab", "0.01")
     assert r.returncode == 2 and "needs at least" in r.stderr
+
+
+def test_local_bicubic_writes_a_sewn_shell(tmp_path):
+    from test_cli import SAMPLE
+    r = run("reconstruct", SAMPLE / "measured_plan.csv", "--surface", "local-bicubic", "--patches-around", "80",
+            "-o", tmp_path / "lb.step", "--json", "--quiet")
+    assert r.returncode == 0, r.stderr
+    s = json.loads(r.stdout)
+    assert s["surface"]["method"] == "local-bicubic" and s["surface"]["u_poles"] == 160
+    from bladerecon.fc.freecad_env import import_freecad
+    import_freecad()
+    from bladerecon.fc.export import read_shape
+    shape = read_shape(str(tmp_path / "lb.step"))
+    assert len(shape.Faces) == 80 * 5 and len(shape.Shells) == 1
+    r = run("reconstruct", SAMPLE / "measured_plan.csv", "--surface", "local-bicubic", "--solid", "-o", tmp_path / "x.step")
+    assert r.returncode == 2 and "sewn shell" in r.stderr
