@@ -116,3 +116,23 @@ def test_fair_fit_is_close_to_the_truth_on_clean_points():
     mid = evaluate_curve(curve, np.mod(t + 0.5 * step, 1.0))[flank]
     dense, _, _ = clean_section(0.3, 200000)          # 0.6 µm apart: nearest sample within 0.3 µm
     assert cKDTree(dense).query(mid)[0].max() < 0.002
+
+
+def test_nasa_rotor67_design_table_has_no_bad_points():
+    """NASA's Rotor 67 sections (a design table, uneven spacing 0.03-8 mm): nothing to fair
+    at 0.01 mm, and at the default 3 µm nothing in sections 2-14 (the hub section refuses)."""
+    from pathlib import Path
+
+    from bladerecon.core.readers import read_points
+    from bladerecon.core.sections import build_sections
+
+    f = Path(__file__).resolve().parents[2] / "shared" / "data" / "nasa_rotor67" / "rotor67_sections_xyz_mm.txt"
+    if not f.exists():
+        pytest.skip("shared/data not beside the repository")
+    secs = build_sections(read_points(str(f))).sections
+    for s in secs:
+        assert not fair_section(s.points, 0.01).bad.any()
+    for s in secs[1:]:
+        assert not fair_section(s.points).bad.any()
+    with pytest.raises(BladeReconError, match="refused"):
+        fair_section(secs[0].points)

@@ -44,6 +44,7 @@ __all__ = [
 
 DEFAULT_THRESHOLD = 0.003   # mm: seed 001, 3 µm for a 2 µm system
 DEFAULT_MAX_MOVE = 0.5      # mm: a fairing that moves a point farther refuses
+AUX_AGREEMENT = 5.0         # replaced points within this many thresholds of the fair fit
 
 
 @dataclass(frozen=True)
@@ -81,6 +82,18 @@ def edge_zones(points: np.ndarray, fraction: float = 0.04) -> np.ndarray:
     x = c @ np.linalg.svd(c, full_matrices=False)[2][0]
     span = np.ptp(x)
     return (x < x.min() + fraction * span) | (x > x.max() - fraction * span)
+
+
+def _robust_turning(P: np.ndarray, window: int = 21) -> np.ndarray:
+    """Turning angle (rad) at each point of a closed loop, running median over ``window`` points."""
+    n = P.shape[0]
+    a = np.roll(P, -1, axis=0) - P
+    b = P - np.roll(P, 1, axis=0)
+    cos = np.einsum("ij,ij->i", a, b) / np.maximum(np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1), 1e-300)
+    turn = np.arccos(np.clip(cos, -1.0, 1.0))
+    w = min(window, n)
+    idx = (np.arange(n)[:, None] + np.arange(-(w // 2), w - w // 2)[None, :]) % n
+    return np.median(turn[idx], axis=1)
 
 
 def _density_knots(t: np.ndarray, density: np.ndarray) -> np.ndarray:
@@ -125,13 +138,15 @@ def chord_parameters_of_good(points: np.ndarray, bad: np.ndarray) -> np.ndarray:
 
 def fair_fit(points: np.ndarray, weights: np.ndarray | None = None, points_per_pole: float = 10.0,
              smoothing: float = 1e-6, t: np.ndarray | None = None, edge_fraction: float = 0.04,
+             knot_length: float = 4.0, knot_turn: float = 0.1,
              rounds: int = 3) -> tuple[BSplineCurve, np.ndarray, np.ndarray]:
     """Weighted periodic least-squares cubic of a closed section (NURBS Book §9.4.1).
 
     Knots by a density-weighted periodic eq. 9.69 on chord-length parameters (seed 003
     eqs. 6-7): one pole per ``points_per_pole`` points on the flanks, one per point in the
     edge zones (:func:`edge_zones`), where the measured points barely resolve the round
-    edges. ``smoothing`` weights the strain energy ∫|C''|² (seed 004) relative to the data
+    edges, and at least one per ``knot_length`` mm of arc and per ``knot_turn`` radians of
+    turning (a running median, blind to short bumps). ``smoothing`` weights the strain energy ∫|C''|² (seed 004) relative to the data
     term. Parameters are corrected by projection (Hoschek) after each solve. Returns
     ``(curve, t, distance)`` with the distance of every point (weighted or not) to the
     curve (mm).
@@ -140,7 +155,16 @@ def fair_fit(points: np.ndarray, weights: np.ndarray | None = None, points_per_p
     n = P.shape[0]
     w = np.ones(n) if weights is None else np.asarray(weights, float)
     t = closed_parameters(P, "chord") if t is None else np.asarray(t, float)
+    # knots: one per point on the edges, one per points_per_pole points on the flanks, but
+    # never sparser than one per knot_length of arc (sparse, uneven tables such as NASA's
+    # then get a knot at nearly every point: too few points to judge there)
+    seg = np.linalg.norm(np.roll(P, -1, axis=0) - P, axis=1)
     density = np.where(edge_zones(P, edge_fraction), 1.0, 1.0 / points_per_pole)
+    density = np.maximum(density, seg / knot_length)
+    # and one per knot_turn radians of turning, from a running median over 21 points: a
+    # short run of bad points cannot raise it, a strongly curved flank does
+    density = np.clip(np.maximum(density, _robust_turning(P) / knot_turn), 0.0, 1.0)
+    density = np.where(w > 0, density, 0.0)     # knots advance with the points that count
     knots = _density_knots(t, density)
     if knots.size < 9:
         knots = np.linspace(0.0, 1.0, 9)
@@ -172,8 +196,8 @@ def detect_bad_points(points: np.ndarray, threshold: float = DEFAULT_THRESHOLD,
         if worst <= threshold:
             break
         bad |= (~bad) & (d > max(threshold, 0.5 * worst))
-        if bad.sum() > 0.5 * n:
-            raise BladeReconError(f"more than half the points of the section are farther than "
+        if bad.sum() > 0.25 * n:
+            raise BladeReconError(f"more than a quarter of the points of the section are farther than "
                                   f"{threshold * 1000:.1f} µm from a fair curve: the threshold is too "
                                   "small for this data or the points are not one section")
     # take back rejected points that the fit of the good points reaches
@@ -260,9 +284,21 @@ def fair_section(points: np.ndarray, threshold: float = DEFAULT_THRESHOLD,
     bad, d, curve, t = detect_bad_points(P, threshold, **fit_options)
     faired = replace_runs(P, bad, curve, t) if bad.any() else P.copy()
     disp = np.linalg.norm(faired - P, axis=1)
+    where = f"section {name}, " if name else ""
+    if bad.any():
+        # the auxiliary cubics must agree with the fair fit of the good points; where the
+        # points around a run are too sparse they do not, and the fairing says so
+        idx = np.flatnonzero(bad)
+        tb = refine_curve_parameters(curve, faired[idx], t[idx], iterations=6)
+        stray = np.linalg.norm(evaluate_curve(curve, tb) - faired[idx], axis=1)
+        if stray.max() > AUX_AGREEMENT * threshold:
+            i = int(idx[np.argmax(stray)])
+            raise BladeReconError(
+                f"fairing refused: {where}the auxiliary curve at point {i} strays {stray.max():.4f} mm from the "
+                f"fair fit of the good points (points around it too sparse or too uneven to rebuild it): "
+                "raise --fair-threshold or leave this data unfaired")
     if disp.max() > max_move:
         i = int(np.argmax(disp))
-        where = f"section {name}, " if name else ""
         raise BladeReconError(
             f"fairing refused: {where}point {i} would move {disp[i]:.4f} mm (limit {max_move} mm); "
             "remove that point or raise --fair-limit")
