@@ -136,37 +136,42 @@ def _file_index(lines: np.ndarray) -> np.ndarray:
 
 def apply_fairing(sections, args: argparse.Namespace):
     """Fair every section; returns ``(point lists, summary dict, table for faired_points.csv)``."""
-    from .core.fairing import DEFAULT_MAX_MOVE, DEFAULT_THRESHOLD, fair_fit, fair_section
+    from .core.fairing import DEFAULT_MAX_MOVE, DEFAULT_THRESHOLD, fair_section
     from .core.fairness import count_inflections
+    from .core.reconstruct import _fit_sections
+    from .core.section_curves import MethodChoice, choose_method
 
     thr = args.fair_threshold if args.fair_threshold is not None else DEFAULT_THRESHOLD
     limit = args.fair_limit if args.fair_limit is not None else DEFAULT_MAX_MOVE
-    from .core.fitting import interpolate_closed_curve
-    from .core.section_curves import choose_method
-
     axis = np.asarray(sections.span_axis)
-    method = args.method
-    if method == "auto":
-        method = choose_method([s.points for s in sections.sections]).method
-    # inflections of the section curve the reconstruction will use: through the points when
-    # interpolating, the fair least-squares fit when smoothing
-    curve_of = (lambda p: interpolate_closed_curve(p)) if method == "interpolate" else (lambda p: fair_fit(p)[0])
-    pts, replaced, before, after, rows = [], [], [], [], []
+
+    # inflections of the section curves the reconstruction itself fits (interpolation or the
+    # noise-consistent smoothing of core.reconstruct), before and after the fairing
+    original = [s.points for s in sections.sections]
+    choice = choose_method(original)
+    if args.method != "auto":
+        choice = MethodChoice(args.method, "", choice.noise_mm, choice.min_spacing_mm, choice.tangent_noise)
+    tol = args.tolerance
+
+    def inflections(point_lists):
+        return [count_inflections(c.curve, axis) for c in _fit_sections(point_lists, choice, tol)]
+
+    pts, replaced, rows = [], [], []
     for k, sec in enumerate(sections.sections):
         f = fair_section(sec.points, thr, limit, name=sec.name)
         pts.append(f.faired)
-        before.append(count_inflections(curve_of(sec.points), axis))
-        after.append(count_inflections(curve_of(f.faired), axis) if f.bad.any() else before[-1])
         idx = _file_index(sec.lines)
         for i in np.flatnonzero(f.bad):
             replaced.append([k, int(idx[i]), float(f.displacement[i])])
         rows.append(np.column_stack([np.full(len(sec.points), k), sec.lines, idx, sec.points, f.faired,
                                      f.displacement, f.bad.astype(int), f.distance]))
+    before = inflections(original)
+    after = inflections(pts) if replaced else before
+    method = choice.method
     replaced.sort(key=lambda r: (r[0], r[1]))
     summary = {"threshold_mm": thr, "limit_mm": limit, "replaced": replaced,
                "inflections_before": before, "inflections_after": after,
-               "inflections_measured_on": ("periodic interpolation of the section points" if method == "interpolate"
-                                           else "fair least-squares fit of each section (core.fairing.fair_fit)")}
+               "inflections_measured_on": f"the reconstruction's own section curves ({method})"}
     return pts, summary, np.concatenate(rows)
 
 
@@ -180,11 +185,14 @@ def write_fairing_csv(folder: str, table: np.ndarray) -> None:
 
 
 def fairness_summary(surface, sections_pts: list[np.ndarray], span_axis) -> dict:
-    """Seed 004's fairness criteria as numbers for the summary (sections and surface)."""
-    from .core.fairing import fair_fit
+    """Seed 004's fairness criteria as numbers for the summary: the section curves (as the
+    reconstruction fits them, method chosen from the data) and the surface."""
     from .core.fairness import curve_fairness, surface_fairness
+    from .core.reconstruct import _fit_sections
+    from .core.section_curves import choose_method
 
-    secs = [curve_fairness(fair_fit(p)[0], span_axis) for p in sections_pts]
+    curves = _fit_sections(sections_pts, choose_method(sections_pts), None)
+    secs = [curve_fairness(c.curve, span_axis) for c in curves]
     return {"sections": {"inflections": [s["inflections"] for s in secs],
                          "strain_energy_per_mm": [s["strain_energy"] for s in secs],
                          "max_curvature_jump_per_mm": [s["max_curvature_jump"] for s in secs]},

@@ -84,14 +84,18 @@ def edge_zones(points: np.ndarray, fraction: float = 0.04) -> np.ndarray:
     return (x < x.min() + fraction * span) | (x > x.max() - fraction * span)
 
 
-def _robust_turning(P: np.ndarray, window: int = 21) -> np.ndarray:
-    """Turning angle (rad) at each point of a closed loop, running median over ``window`` points."""
+def _robust_turning(P: np.ndarray, window: int = 21, baseline: float = 0.5) -> np.ndarray:
+    """Turning (rad) per point step of a closed loop, measured over chords of about
+    ``baseline`` mm (so that noise on dense points does not read as turning), running
+    median over ``window`` points (so that a short run of bad points does not either)."""
     n = P.shape[0]
-    a = np.roll(P, -1, axis=0) - P
-    b = P - np.roll(P, 1, axis=0)
+    h = float(np.median(np.linalg.norm(np.roll(P, -1, axis=0) - P, axis=1)))
+    k = int(max(1, min(n // 8, round(baseline / max(h, 1e-300)))))
+    a = np.roll(P, -k, axis=0) - P
+    b = P - np.roll(P, k, axis=0)
     cos = np.einsum("ij,ij->i", a, b) / np.maximum(np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1), 1e-300)
-    turn = np.arccos(np.clip(cos, -1.0, 1.0))
-    w = min(window, n)
+    turn = np.arccos(np.clip(cos, -1.0, 1.0)) / k
+    w = min(max(window, 2 * k + 1), n)
     idx = (np.arange(n)[:, None] + np.arange(-(w // 2), w - w // 2)[None, :]) % n
     return np.median(turn[idx], axis=1)
 
@@ -177,7 +181,7 @@ def fair_fit(points: np.ndarray, weights: np.ndarray | None = None, points_per_p
 
 
 def detect_bad_points(points: np.ndarray, threshold: float = DEFAULT_THRESHOLD,
-                      max_rounds: int = 60, **fit_options) -> tuple[np.ndarray, np.ndarray, BSplineCurve, np.ndarray]:
+                      max_rounds: int = 60, name: str = "", **fit_options) -> tuple[np.ndarray, np.ndarray, BSplineCurve, np.ndarray]:
     """Bad points of a closed, ordered section: farther than ``threshold`` from the fair fit.
 
     Worst-first rejection (module docstring). Returns ``(bad (n,) bool, distance (n,) mm,
@@ -197,9 +201,12 @@ def detect_bad_points(points: np.ndarray, threshold: float = DEFAULT_THRESHOLD,
             break
         bad |= (~bad) & (d > max(threshold, 0.5 * worst))
         if bad.sum() > 0.25 * n:
-            raise BladeReconError(f"more than a quarter of the points of the section are farther than "
-                                  f"{threshold * 1000:.1f} µm from a fair curve: the threshold is too "
-                                  "small for this data or the points are not one section")
+            where = f"section {name}: " if name else ""
+            med = float(np.median(d))
+            raise BladeReconError(f"{where}more than a quarter of the points are farther than "
+                                  f"{threshold * 1000:.1f} µm from a fair curve (median distance "
+                                  f"{med * 1000:.1f} µm): the threshold is below this data's noise; "
+                                  f"try --fair-threshold {max(5 * med, threshold):.3f}")
     # take back rejected points that the fit of the good points reaches
     for _ in range(3):
         back = bad & (d <= threshold)
@@ -281,7 +288,7 @@ def fair_section(points: np.ndarray, threshold: float = DEFAULT_THRESHOLD,
     not what the fairing assumes; remove it or raise the limit knowingly.
     """
     P = np.asarray(points, float)
-    bad, d, curve, t = detect_bad_points(P, threshold, **fit_options)
+    bad, d, curve, t = detect_bad_points(P, threshold, name=name, **fit_options)
     faired = replace_runs(P, bad, curve, t) if bad.any() else P.copy()
     disp = np.linalg.norm(faired - P, axis=1)
     where = f"section {name}, " if name else ""
