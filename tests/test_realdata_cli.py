@@ -107,3 +107,21 @@ def test_local_bicubic_writes_a_sewn_shell(tmp_path):
     assert len(shape.Faces) == 80 * 5 and len(shape.Shells) == 1
     r = run("reconstruct", SAMPLE / "measured_plan.csv", "--surface", "local-bicubic", "--solid", "-o", tmp_path / "x.step")
     assert r.returncode == 2 and "sewn shell" in r.stderr
+
+
+def test_slice_a_plain_cloud_by_planes(tmp_path):
+    from realdata_fixtures import BLADE
+    rng = np.random.default_rng(5)
+    pts = BLADE.point(rng.random(60000), rng.random(60000))
+    far = np.array([[80.0, 80.0, 50.0]])                       # one stray point in the 50 mm slab
+    np.savetxt(tmp_path / "cloud.xyz", np.vstack([pts, far]), fmt="%.6f")
+    r = run("reconstruct", tmp_path / "cloud.xyz", "--slice-at", "10,30,50,70,90", "--slab", "0.5", "--json", "--quiet")
+    assert r.returncode == 0, r.stderr
+    s = json.loads(r.stdout)
+    assert s["input"]["sections"] == 5 and s["slicing"]["kind"] == "planes"
+    assert s["slicing"]["outliers"] == [[2, 60001]]            # slice 2, file line of the stray point
+    r = run("reconstruct", tmp_path / "cloud.xyz", "--slice", "4", "--json", "--quiet")
+    assert r.returncode == 0, r.stderr
+    assert json.loads(r.stdout)["input"]["sections"] == 4
+    r = run("reconstruct", tmp_path / "cloud.xyz", "--slice-at", "10,150")
+    assert r.returncode == 2 and "slice at 150.0000 mm: 0 points" in r.stderr
