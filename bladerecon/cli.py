@@ -57,6 +57,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="with --segmented: C2 (default) or C3 at the LE/TE joints")
     r.add_argument("--solid", action="store_true", help="close hub and tip with planar caps; write a solid")
     r.add_argument("--quiet", action="store_true", help="no progress messages on stderr")
+    from .realdata_cli import add_options as add_realdata_options
+    add_realdata_options(r)
     from .deviation_cli import add_parser as add_deviation_parser
     add_deviation_parser(sub)
     from .acquire.commands import add_parsers as add_acquire_parsers
@@ -78,13 +80,14 @@ def _stats(d: np.ndarray, signed: bool | None = None) -> dict:
 
 
 def run_reconstruct(args: argparse.Namespace) -> dict:
-    from .core.readers import read_points
+    from . import realdata_cli as realdata
     from .core.sections import build_sections
     from .core.reconstruct import reconstruct
     from .core.pairing import reconstruct_paired
     from .core.projection import project_points_to_surface
 
     say = _Progress(args.quiet or False)
+    realdata.check_options(args)
     if args.tolerance is not None and args.method != "approximate":
         raise BladeReconError("--tolerance applies to --method approximate; add --method approximate")
     if args.pairing == "angle" and args.method == "approximate":
@@ -98,7 +101,7 @@ def run_reconstruct(args: argparse.Namespace) -> dict:
         raise BladeReconError(f"--output {args.output} is the input file: choose another name (inputs are never overwritten)")
     t_start = time.perf_counter()
     say(f"reading {args.input}")
-    pointset = read_points(args.input)
+    pointset, slicing = realdata.read_input(args)
     sections = build_sections(pointset)
     t_read = time.perf_counter()
     n_reordered = sum(s.reordered for s in sections.sections)
@@ -106,21 +109,31 @@ def run_reconstruct(args: argparse.Namespace) -> dict:
         + (f" ({n_reordered} reordered along the profile)" if n_reordered else ""))
 
     pts = [s.points for s in sections.sections]
+    fairing = None
+    if args.fair:
+        say("fairing: looking for bad points")
+        pts, fairing, fairing_table = realdata.apply_fairing(sections, args)
+        say(f"fairing: {len(fairing['replaced'])} points replaced")
     say("fitting section curves and surface")
     measured_start = not sections.sections[0].reordered
     seg_info = None
     if getattr(args, "segmented", False):
-        if args.pairing == "angle" or args.method != "auto":
-            raise BladeReconError("--segmented builds its own section curves: use it without --pairing angle and --method")
+        if args.pairing == "angle" or args.method != "auto" or args.poles is not None:
+            raise BladeReconError("--segmented builds its own section curves: use it without --pairing angle, "
+                                  "--method and --poles")
         from .core.segment_fit import rebuild_sections
         rebuilt, seg_info = rebuild_sections(pts, sections.span_axis, measured_start, args.continuity)
         # the rebuilt sections are sampled densely without noise: the surface interpolates them
         rec = reconstruct(rebuilt, sections.span_axis, method="interpolate", first_point_is_measured=True)
+    elif args.poles is not None:
+        rec = realdata.reconstruct_nongrid(pts, sections.span_axis, args.poles)
     elif args.pairing == "angle":
         rec = reconstruct_paired(pts, sections.span_axis, first_point_is_measured=measured_start)
     else:
         rec = reconstruct(pts, sections.span_axis, method=args.method, tolerance=args.tolerance,
                           first_point_is_measured=measured_start)
+    if args.surface == "local-bicubic":
+        rec = realdata.local_bicubic(rec, args.patches_around, args.fair_surface, pts)
     measured = np.concatenate(pts)
     if seg_info is None:
         proj = project_points_to_surface(rec.surface, measured, rec.point_u, rec.point_v)
@@ -146,6 +159,13 @@ def run_reconstruct(args: argparse.Namespace) -> dict:
                                 "joint_curvature_rel_max": max(i["joint_curvature_rel_max"] for i in seg_info)}
     if getattr(rec, "added_points", None) is not None:
         summary["surface"]["pairing_added_points"] = int(rec.added_points)
+    if slicing is not None:
+        summary["slicing"] = slicing
+    if fairing is not None:
+        summary["fairing"] = fairing
+    if getattr(rec, "surface_fairing", None) is not None:
+        summary["surface_fairing"] = rec.surface_fairing
+    summary["fairness"] = realdata.fairness_summary(surf, pts, sections.span_axis)
 
     t_exp0 = time.perf_counter()
     shape = None
@@ -154,9 +174,8 @@ def run_reconstruct(args: argparse.Namespace) -> dict:
         say("loading FreeCAD")
         import_freecad()
     if args.output:
-        from .fc.convert import make_face
-        from .fc.export import make_solid, write_step
-        shape = make_solid(surf) if args.solid else make_face(surf)
+        from .fc.export import write_step
+        shape = realdata.make_shape(surf, args)
         write_step(shape, args.output)
         summary["output"] = {"step": args.output, "solid": bool(args.solid)}
         say(f"wrote {args.output}")
@@ -181,6 +200,8 @@ def run_reconstruct(args: argparse.Namespace) -> dict:
     if args.report:
         from .report import write_report
         write_report(args.report, summary, sections, measured, proj, nominal_dev)
+        if fairing is not None:
+            realdata.write_fairing_csv(args.report, fairing_table)
         say(f"report in {args.report}")
     return summary
 
