@@ -47,7 +47,7 @@ def fit_tspline_into_document(path: str, tolerance: float):
 class TSplineCommand(commands._Command):
     """Choose a point file and a tolerance; add the adaptive T-spline surface."""
 
-    icon = "BladeRecon"
+    icon = "BladeRecon_TSpline"
     menu_text = "Fit adaptive T-spline"
     tool_tip = ("Analysis-suitable T-spline fit with local refinement until every point is within the "
                 "tolerance (seed 002); exported as sewn bicubic Bézier patches")
