@@ -212,11 +212,9 @@ def _linked_points(obj: Any, link: str = "Points"):
 # --------------------------------------------------------------------------- sections
 @dataclass(frozen=True)
 class SectionParameters:
-    """Per-section results shown by BladeSections (mm): curves, LE/TE, chord length.
-
-    Issue 3's ``core/section_parameters.py`` (camber, thickness, metal angles, edge radii)
-    extends this: :func:`section_parameters` is the one place it plugs in.
-    """
+    """Per-section results shown by BladeSections (mm, degrees): curves, LE/TE, and the
+    parameters of :mod:`bladerecon.core.section_parameters` (issue 3). NaN where a value
+    could not be measured (an edge with too few points for a radius: see ``warnings``)."""
 
     names: tuple[str, ...]
     curves: tuple               # core BSplineCurve per section
@@ -225,34 +223,45 @@ class SectionParameters:
     chord: np.ndarray           # (k,) |TE - LE|
     reordered: np.ndarray       # (k,) bool: points re-ordered along the profile
     span_axis: np.ndarray
+    stagger_deg: np.ndarray
+    max_thickness: np.ndarray
+    max_thickness_pos: np.ndarray   # mm from the LE along the chord
+    le_radius: np.ndarray
+    te_radius: np.ndarray
+    inlet_angle_deg: np.ndarray
+    outlet_angle_deg: np.ndarray
+    warnings: tuple[str, ...]
 
 
 def section_parameters(section_set) -> SectionParameters:
-    """Section curves and LE/TE of every section of a :class:`~bladerecon.core.sections.SectionSet`.
+    """Section curves, LE/TE and parameters of every section of a
+    :class:`~bladerecon.core.sections.SectionSet`.
 
     Curves are fitted as :func:`bladerecon.core.reconstruct.reconstruct` does (interpolating
-    or smoothing, chosen from spacing against noise); LE/TE by
-    :func:`bladerecon.core.surface.anchor_section` (``find_le_te``: extremes along the chord,
-    tangent perpendicular to it), the LE chained from the first section's measured start so
-    that LE and TE do not swap between sections.
+    or smoothing, chosen from spacing against noise); segmentation and parameters by
+    :func:`bladerecon.core.section_parameters.segment_sections` / ``measure_section`` (LE/TE
+    from the curvature peaks, the LE chained from the first section's measured start). An
+    edge too sparse for a radius gives NaN and a warning, not a failure.
     """
-    from bladerecon.core.reconstruct import _fit_sections, first_point_edge_hint
+    from bladerecon.core.reconstruct import _fit_sections
     from bladerecon.core.section_curves import choose_method
-    from bladerecon.core.surface import anchor_section
+    from bladerecon.core.section_parameters import measure_section, segment_sections
 
     pts = [s.points for s in section_set.sections]
     curves = _fit_sections(pts, choose_method(pts), None)
-    hint = None if section_set.sections[0].reordered else first_point_edge_hint(pts[0])
-    anchored = []
-    for sc in curves:
-        a = anchor_section(sc, section_set.span_axis, le_hint=hint)
-        anchored.append(a)
-        hint = a.le
-    le = np.array([a.le for a in anchored])
-    te = np.array([a.te for a in anchored])
-    return SectionParameters(tuple(s.name for s in section_set.sections), tuple(sc.curve for sc in curves),
-                             le, te, np.linalg.norm(te - le, axis=1),
-                             np.array([s.reordered for s in section_set.sections]), section_set.span_axis)
+    segs = segment_sections(pts, section_set.span_axis, not section_set.sections[0].reordered)
+    measured = [measure_section(seg, strict_radius=False) for seg in segs]
+
+    def column(name: str) -> np.ndarray:
+        return np.array([np.nan if getattr(m, name) is None else float(getattr(m, name)) for m in measured])
+
+    return SectionParameters(
+        tuple(s.name for s in section_set.sections), tuple(sc.curve for sc in curves),
+        np.array([m.le for m in measured]), np.array([m.te for m in measured]), column("chord"),
+        np.array([s.reordered for s in section_set.sections]), section_set.span_axis,
+        column("stagger_deg"), column("max_thickness"), column("max_thickness_pos"), column("le_radius"),
+        column("te_radius"), column("inlet_angle_deg"), column("outlet_angle_deg"),
+        tuple(f"{s.name}: {w}" for s, m in zip(section_set.sections, measured) for w in m.warnings))
 
 
 class BladeSections(_Feature):
@@ -267,6 +276,14 @@ class BladeSections(_Feature):
         ("App::PropertyFloatList", "ChordLengths", "Sections", "|TE - LE| per section (mm)", 1),
         ("App::PropertyIntegerList", "Reordered", "Sections", "1 where the points were re-ordered along the profile", 1),
         ("App::PropertyVector", "SpanAxis", "Sections", "unit span direction, first section to last", 1),
+        ("App::PropertyFloatList", "StaggerDeg", "Parameters", "angle of LE->TE from +x in the section plane (deg)", 1),
+        ("App::PropertyFloatList", "MaxThickness", "Parameters", "largest inscribed-circle diameter (mm)", 1),
+        ("App::PropertyFloatList", "MaxThicknessPos", "Parameters", "its position from the LE along the chord (mm)", 1),
+        ("App::PropertyFloatList", "LERadius", "Parameters", "circle fit to the LE region (mm; nan: too few points)", 1),
+        ("App::PropertyFloatList", "TERadius", "Parameters", "circle fit to the TE region (mm; nan: too few points)", 1),
+        ("App::PropertyFloatList", "InletAngle", "Parameters", "camber-line angle at the LE (deg)", 1),
+        ("App::PropertyFloatList", "OutletAngle", "Parameters", "camber-line angle at the TE (deg)", 1),
+        ("App::PropertyStringList", "Warnings", "Parameters", "values that could not be measured, and why", 1),
     )
 
     def compute(self, obj: Any) -> None:
@@ -284,6 +301,12 @@ class BladeSections(_Feature):
         obj.ChordLengths = [float(c) for c in params.chord]
         obj.Reordered = [int(r) for r in params.reordered]
         obj.SpanAxis = FreeCAD.Vector(*params.span_axis)
+        for prop, values in (("StaggerDeg", params.stagger_deg), ("MaxThickness", params.max_thickness),
+                             ("MaxThicknessPos", params.max_thickness_pos), ("LERadius", params.le_radius),
+                             ("TERadius", params.te_radius), ("InletAngle", params.inlet_angle_deg),
+                             ("OutletAngle", params.outlet_angle_deg)):
+            setattr(obj, prop, [float(v) for v in values])
+        obj.Warnings = list(params.warnings)
 
 
 def make_blade_sections(doc: Any, points_obj: Any, name: str = "BladeSections") -> Any:
