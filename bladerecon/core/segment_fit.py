@@ -316,7 +316,7 @@ def rebuild_sections(section_points: list[np.ndarray], span_axis: np.ndarray, fi
     for seg, measured in zip(segs, section_points):
         ss = fit_segmented(seg, continuity)
         pts = rebuilt_section_points(seg, ss, measured, n)
-        start = int(np.argmin(np.linalg.norm(pts - seg.frame.to_space(seg.le)[0], axis=1)))
+        start = int(np.argmin(np.linalg.norm(pts - seg.lift(seg.le)[0], axis=1)))
         out.append(np.roll(pts, -start, axis=0))
         info.append({"index": seg.index, "continuity": continuity,
                      "joint_position_max": max(j["position"] for j in ss.joints),

@@ -1,9 +1,10 @@
 """Section segmentation: leading-edge region, trailing-edge region, suction side, pressure side.
 
 Seed 000 §2.2. Every closed section is worked on in its own plane (best-fit plane of its
-points, normal oriented along the span axis; :func:`section_frame`), so planar, tilted and
-non-planar (stream-surface) sections are treated alike: a non-planar section is projected
-on its best-fit plane. Units: mm, angles in degrees at the interface.
+points, normal oriented along the span axis; :func:`section_frame`), so planar and tilted
+sections are treated alike; a non-planar (stream-surface) section is projected on the plane
+normal to the span axis (its best-fit plane would lean with the twist and turn the chord).
+Units: mm, angles in degrees at the interface.
 
 Steps (:func:`segment_section`):
 
@@ -64,6 +65,8 @@ __all__ = [
 LE, SUCTION, TE, PRESSURE = 0, 1, 2, 3
 REGION_NAMES = ("le", "suction", "te", "pressure")
 _TABLE = 8000          # dense samples of the section curve
+#: a section whose points leave their best-fit plane by more than this (mm) is non-planar
+NONPLANAR_LIMIT = 0.05
 
 
 @dataclass(frozen=True)
@@ -121,6 +124,18 @@ class Segmentation:
     suction_forward: bool = True     # True: going +t from the LE runs along the suction side
     labels: np.ndarray | None = None  # region of every measured point (LE, SUCTION, TE, PRESSURE)
     throat: dict | None = None
+    offsets: np.ndarray | None = None  # distance of each measured point from the plane (mm)
+
+    def lift(self, q: np.ndarray) -> np.ndarray:
+        """Plane points (m, 2) -> 3D, with the out-of-plane offset of a non-planar section
+        interpolated from the two nearest measured points (inverse distance)."""
+        q = np.atleast_2d(np.asarray(q, float))
+        base = self.frame.to_space(q)
+        if self.offsets is None or np.abs(self.offsets).max() < 1e-9:
+            return base
+        d, i = cKDTree(self.points2d).query(q, k=2)
+        w = (self.offsets[i[:, 0]] * d[:, 1] + self.offsets[i[:, 1]] * d[:, 0]) / np.maximum(d.sum(axis=1), 1e-300)
+        return base + w[:, None] * self.frame.normal
 
     @property
     def chord(self) -> float:
@@ -168,6 +183,11 @@ class Segmentation:
 def section_frame(points: np.ndarray, span_axis: np.ndarray | None = None) -> SectionFrame:
     """Best-fit plane of a section (least squares, SVD), normal pointing along ``span_axis``.
 
+    A non-planar section (points farther than :data:`NONPLANAR_LIMIT` from their best-fit
+    plane, e.g. a stream-surface section) is projected on the plane normal to ``span_axis``
+    instead, when one is given: the best-fit plane of a twisted stream-surface section leans
+    and would turn its chord angle by degrees (NASA Rotor 67 tip: 20°).
+
     e1 is global +x projected on the plane (+y if the plane is nearly normal to x), so
     angles measured from e1 about the normal are "from +x about +z" for a section in a
     plane z = const. Units mm.
@@ -179,6 +199,10 @@ def section_frame(points: np.ndarray, span_axis: np.ndarray | None = None) -> Se
     n = np.linalg.svd(P - origin, full_matrices=False)[2][-1]
     if n @ a < 0:
         n = -n
+    if span_axis is not None and np.abs((P - origin) @ n).max() > NONPLANAR_LIMIT:
+        # a stream-surface section: its best-fit plane leans with the blade's twist and would
+        # turn the chord; the plane normal to the span axis keeps angles about the span
+        n = a
     ref = np.array([1.0, 0.0, 0.0])
     if np.linalg.norm(np.cross(ref, n)) < 0.3:
         ref = np.array([0.0, 1.0, 0.0])
@@ -395,9 +419,10 @@ def segment_section(points: np.ndarray, index: int = 0, span_axis: np.ndarray | 
                            le, te, le_info["t_peak"], te_info["t_peak"], joints, bool(suction_forward),
                            None, throat_info)
     labels = seg_obj.label_parameters(sc.t_points)
+    offsets = (P - frame.origin) @ frame.normal
     return Segmentation(index, frame, q, curve, method, sc.t_points, le_info["t_end"], te_info["t_end"],
                         le, te, le_info["t_peak"], te_info["t_peak"], joints, bool(suction_forward),
-                        labels, throat_info)
+                        labels, throat_info, offsets)
 
 
 def _throat_point(seg: Segmentation, spec: ThroatSpec, pts: np.ndarray, t: np.ndarray) -> dict:
