@@ -203,3 +203,22 @@ def test_nasa_stream_surface_sections_are_measured_across_the_span_axis(path):
         assert abs(m.stagger_deg - np.degrees(np.arctan2(d[1], d[0]))) < 0.5, k
         assert abs(m.chord_in_plane - np.linalg.norm(d)) < 0.3, k
         assert abs(seg.frame.normal @ axis) > 0.999999          # the projection is along the span axis
+
+
+def test_cli_sections_with_a_section_file_nominal_and_throat(tmp_path):
+    """Nominal as a dense section file (noise-free, 3000 points a section); throat from eq. 5."""
+    secs = sample_sections(SampleBlade(), 6, 3000, "uniform", noise=0.0, seed=9)
+    f = tmp_path / "nominal.csv"
+    lines = ["section,x,y,z"] + [f"{k},{x},{y},{z}" for k, p in enumerate(secs) for x, y, z in p]
+    f.write_text("\n".join(lines) + "\n")
+    r = _cli("sections", ROOT / "resources" / "sample" / "measured.csv", "--nominal", f, "--beta1", "45",
+             "--beta2", "15", "--json", "--quiet")
+    assert r.returncode == 0, r.stderr
+    rows = json.loads(r.stdout)
+    for row in rows:
+        d = row["difference"]
+        assert abs(d["chord"]) < 0.02 and abs(d["max_thickness"]) < 0.005 and abs(d["stagger_deg"]) < 0.05
+        assert d["le_shift"] < 0.03 and d["te_shift"] < 0.03
+        th = row["throat"]
+        assert th["width"] > 0 and abs(th["ratio"] - 1 / (2 * np.cos(np.radians(15)) ** 2 *
+                                                          (np.tan(np.radians(45)) - np.tan(np.radians(15))))) < 1e-9
