@@ -42,6 +42,7 @@ class SectionPlan:
     hausdorff: float           # achieved max distance between the plan's cubic and the section (mm)
     iterations: int
     extrema: tuple[int, int]   # dense indices of the LE and TE curvature maxima
+    initial: int = 10          # points in the starting set (8 equal + 2 extrema, fewer if they coincide)
 
     @property
     def compression(self) -> float:
@@ -103,10 +104,12 @@ def plan_section(dense: np.ndarray, index: int = 0, tolerance: float = DEFAULT_T
     arc = np.concatenate([[0.0], np.cumsum(seglen)])      # arc[i] at point i, arc[n] = perimeter
     per = arc[-1]
     start = arc[i_le]
-    targets = np.mod(start + per * np.arange(N_EQUAL) / N_EQUAL, per)
+    # half a spacing off the LE peak, so that the 8 + 2 starting points are 10 distinct points
+    targets = np.mod(start + per * (np.arange(N_EQUAL) + 0.5) / N_EQUAL, per)
     equal = np.searchsorted(arc[:-1], targets)
     equal = np.clip(equal, 0, n - 1)
     keep = np.unique(np.concatenate([equal, [i_le, i_te]]))
+    initial = len(keep)
     max_points = max_points or n
     # arc-length position of every dense point, to start its projection on the plan curve
     it = 0
@@ -130,7 +133,7 @@ def plan_section(dense: np.ndarray, index: int = 0, tolerance: float = DEFAULT_T
             if worst in keep:
                 break
         keep = np.sort(np.append(keep, worst))
-    return SectionPlan(index, keep, P[keep], n, float(h), it, (i_le, i_te))
+    return SectionPlan(index, keep, P[keep], n, float(h), it, (i_le, i_te), initial)
 
 
 def plan_sections(sections: list[np.ndarray], tolerance: float = DEFAULT_TOLERANCE,
