@@ -131,7 +131,7 @@ class Segmentation:
         interpolated from the two nearest measured points (inverse distance)."""
         q = np.atleast_2d(np.asarray(q, float))
         base = self.frame.to_space(q)
-        if self.offsets is None or np.abs(self.offsets).max() < 1e-9:
+        if self.offsets is None or self.frame.flatness <= NONPLANAR_LIMIT:   # planar: offsets are noise
             return base
         d, i = cKDTree(self.points2d).query(q, k=2)
         w = (self.offsets[i[:, 0]] * d[:, 1] + self.offsets[i[:, 1]] * d[:, 0]) / np.maximum(d.sum(axis=1), 1e-300)
