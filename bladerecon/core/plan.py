@@ -25,7 +25,7 @@ from .bspline import closed_parameters, evaluate_curve
 from .errors import BladeReconError
 from .fitting import interpolate_closed_curve
 from .section_curves import refine_curve_parameters
-from .segmentation import section_frame, segment_section
+from .segmentation import segment_section
 
 __all__ = ["SectionPlan", "plan_section", "plan_sections", "hausdorff_to_polyline", "cut_surface", "DEFAULT_TOLERANCE"]
 

@@ -40,7 +40,7 @@ towards (mean offset from the chord on the same side as the mean of both sides).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.ndimage import median_filter
@@ -294,11 +294,11 @@ def _chord_ends(curve: BSplineCurve, t: np.ndarray, pts: np.ndarray) -> tuple[fl
     return float(ts[0]), float(ts[1])
 
 
-def _edge_analysis(kappa: np.ndarray, arc: np.ndarray, i_end: int, perimeter: float, chord: float,
-                   flank_level: float):
+def _edge_analysis(kappa: np.ndarray, i_end: int, perimeter: float, chord: float, flank_level: float):
     """Curvature peak and the two joints (steepest curvature drop) around one end.
 
-    ``kappa``/``arc`` are the dense table; ``i_end`` the index of the edge point. Returns
+    ``kappa`` is the dense table (equal steps in the curve parameter, close to arc length);
+    ``i_end`` the index of the edge point. Returns
     (i_peak, i_minus, i_plus, peak) with i_minus before, i_plus after the end (table indices,
     may wrap).
     """
@@ -354,14 +354,9 @@ def segment_section(points: np.ndarray, index: int = 0, span_axis: np.ndarray | 
     pts = der[:, 0]
     speed = np.linalg.norm(der[:, 1], axis=1)
     kappa = (der[:, 1, 0] * der[:, 2, 1] - der[:, 1, 1] * der[:, 2, 0]) / np.maximum(speed ** 3, 1e-300)
-    if np.mean(kappa) < 0:      # make the loop counter-clockwise in the plane (convex ends > 0)
+    if np.mean(kappa) < 0:      # a clockwise loop in the plane: convex ends get κ > 0 all the same
         kappa = -kappa
-        ccw = False
-    else:
-        ccw = True
-    seg = np.linalg.norm(np.roll(pts, -1, axis=0) - pts, axis=1)
-    perimeter = float(seg.sum())
-    arc = np.concatenate([[0.0], np.cumsum(seg)[:-1]])
+    perimeter = float(np.linalg.norm(np.roll(pts, -1, axis=0) - pts, axis=1).sum())
 
     t_a, t_b = _chord_ends(curve, t, pts)
     ends = evaluate_curve(curve, np.array([t_a, t_b]))
@@ -370,7 +365,7 @@ def segment_section(points: np.ndarray, index: int = 0, span_axis: np.ndarray | 
     info = []
     for t_end in (t_a, t_b):
         i_end = int(np.round((t_end - lo) / (hi - lo) * _TABLE)) % _TABLE
-        i_peak, i_m, i_p, peak = _edge_analysis(kappa, arc, i_end, perimeter, chord, flank_level)
+        i_peak, i_m, i_p, peak = _edge_analysis(kappa, i_end, perimeter, chord, flank_level)
         if not peak > peak_ratio * max(flank_level, 1e-12):
             raise BladeReconError(
                 f"section {index}: no clear LE/TE curvature peak (end curvature {peak:.4g}/mm is not "
@@ -405,24 +400,14 @@ def segment_section(points: np.ndarray, index: int = 0, span_axis: np.ndarray | 
     else:
         joints = {"le_suction": le_info["t_minus"], "le_pressure": le_info["t_plus"],
                   "te_pressure": te_info["t_minus"], "te_suction": te_info["t_plus"]}
-    seg_obj = Segmentation(index, frame, q, curve, method, sc.t_points, le_info["t_end"], te_info["t_end"],
-                           le, te, le_info["t_peak"], te_info["t_peak"], joints, bool(suction_forward))
-    throat_info = None
+    seg = Segmentation(index, frame, q, curve, method, sc.t_points, le_info["t_end"], te_info["t_end"],
+                       le, te, le_info["t_peak"], te_info["t_peak"], joints, bool(suction_forward),
+                       offsets=(P - frame.origin) @ frame.normal)
     if throat is not None:
-        throat_info = _throat_point(seg_obj, throat, pts, t)
-        tj = throat_info["t"]
+        info_throat = _throat_point(seg, throat, pts, t)
         # the TE region starts at the throat point on the suction side (seed 000 Fig. 3)
-        joints = dict(joints)
-        joints["te_suction"] = tj
-    labels = None
-    seg_obj = Segmentation(index, frame, q, curve, method, sc.t_points, le_info["t_end"], te_info["t_end"],
-                           le, te, le_info["t_peak"], te_info["t_peak"], joints, bool(suction_forward),
-                           None, throat_info)
-    labels = seg_obj.label_parameters(sc.t_points)
-    offsets = (P - frame.origin) @ frame.normal
-    return Segmentation(index, frame, q, curve, method, sc.t_points, le_info["t_end"], te_info["t_end"],
-                        le, te, le_info["t_peak"], te_info["t_peak"], joints, bool(suction_forward),
-                        labels, throat_info, offsets)
+        seg = replace(seg, t_joints={**joints, "te_suction": info_throat["t"]}, throat=info_throat)
+    return replace(seg, labels=seg.label_parameters(sc.t_points))
 
 
 def _throat_point(seg: Segmentation, spec: ThroatSpec, pts: np.ndarray, t: np.ndarray) -> dict:
