@@ -165,3 +165,23 @@ def test_core_plane_cut_of_the_nominal_agrees_with_occ_slice():
     assert d.max() <= tol + 3e-5 and np.median(d) < 2e-4
     spacing = np.linalg.norm(np.diff(ours, axis=0), axis=1)
     assert abs(spacing.mean() - 0.1) < 0.002
+
+
+def test_cli_plan_from_a_dense_section_file(tmp_path):
+    f = tmp_path / "dense.csv"
+    secs = [_dense(h) for h in (0.1, 0.5, 0.9)]
+    lines = ["section,x,y,z"] + [f"{k},{x},{y},{z}" for k, p in enumerate(secs) for x, y, z in p]
+    f.write_text("\n".join(lines) + "\n")
+    r = _cli("plan", f, "--tolerance", "0.05", "--heights", "50", "--json", "--quiet")
+    assert r.returncode == 0, r.stderr
+    s = json.loads(r.stdout)
+    assert len(s["sections"]) == 1 and abs(s["sections"][0]["height"] - 50.0) < 1e-6   # nearest section picked
+    assert s["compression_rate"] >= 0.95 and s["hausdorff_max"] <= 0.05
+
+
+def test_cli_plan_check_reports_the_surface_against_the_nominal():
+    r = _cli("plan", ROOT / "resources" / "sample" / "nominal.step", "--heights", "20,40,60,80", "--check",
+             "--json", "--quiet")
+    assert r.returncode == 0, r.stderr
+    c = json.loads(r.stdout)["check"]
+    assert 0 < c["surface_to_nominal_mean"] < c["surface_to_nominal_max"] < 0.1 and c["samples"] > 1000
