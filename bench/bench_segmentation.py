@@ -93,7 +93,7 @@ def truth_distance(h, pts):
 def plan_table():
     heights = np.array([0.005, *np.arange(0.1, 0.95, 0.1), 0.995])
     rows = []
-    for tol in (0.05, 0.045, 0.02):
+    for tol in (0.05, 0.045, 0.04, 0.02):
         t0 = time.perf_counter()
         plans = [plan_section(dense_section(h), k, tol) for k, h in enumerate(heights)]
         secs = time.perf_counter() - t0

@@ -57,7 +57,7 @@ def plot_section(path: str, seg, params, nominal_seg=None) -> None:
             a.plot(*seg.throat["point"], "m*", ms=10, label="throat")
         a.set_aspect("equal")
         a.grid(alpha=0.3)
-    ax.legend(fontsize=7, loc="best", ncol=4)
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     ax.set_title(f"section {seg.index}: chord {params.chord:.3f} mm, stagger {params.stagger_deg:.2f}°, "
                  f"t_max {params.max_thickness:.3f} mm at {params.max_thickness_pos:.2f} mm, "
                  f"r_LE {_f(params.le_radius)}, r_TE {_f(params.te_radius)} mm", fontsize=9)

@@ -106,7 +106,7 @@ def run_sections(args: argparse.Namespace) -> list:
         for k, (s, q) in enumerate(zip(segs, nom_pts)):
             from .core.segmentation import segment_section
             # the nominal's LE is the end nearest the measured LE
-            ns = segment_section(q, k, axis, le_hint=s.frame.to_space(s.le)[0], throat=throat)
+            ns = segment_section(q, k, axis, le_hint=s.lift(s.le)[0], throat=throat)
             nsegs.append(ns)
         nparams = [measure_section(s, offsets, strict_radius=not args.lenient) for s in nsegs]
         for o, n in zip(out, nparams):

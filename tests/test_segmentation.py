@@ -80,7 +80,7 @@ def test_rotor37_every_section_has_four_regions_and_le_at_the_table_le():
     raw = read_points(DATA / "nasa_rotor37" / "rotor37_sections_xyz_mm.txt")
     for k, seg in enumerate(segs):
         assert np.bincount(seg.labels, minlength=4).min() >= 3, k
-        assert np.linalg.norm(seg.frame.to_space(seg.le)[0] - raw.section_points(k)[0]) < 0.5
+        assert np.linalg.norm(seg.lift(seg.le)[0] - raw.section_points(k)[0]) < 0.5
 
 
 def test_open_section_is_refused():

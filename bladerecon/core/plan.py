@@ -25,9 +25,9 @@ from .bspline import closed_parameters, evaluate_curve
 from .errors import BladeReconError
 from .fitting import interpolate_closed_curve
 from .section_curves import refine_curve_parameters
-from .segmentation import section_frame, segment_section
+from .segmentation import segment_section
 
-__all__ = ["SectionPlan", "plan_section", "plan_sections", "hausdorff_to_polyline", "DEFAULT_TOLERANCE"]
+__all__ = ["SectionPlan", "plan_section", "plan_sections", "hausdorff_to_polyline", "cut_surface", "DEFAULT_TOLERANCE"]
 
 DEFAULT_TOLERANCE = 0.05
 N_EQUAL = 8
@@ -42,6 +42,7 @@ class SectionPlan:
     hausdorff: float           # achieved max distance between the plan's cubic and the section (mm)
     iterations: int
     extrema: tuple[int, int]   # dense indices of the LE and TE curvature maxima
+    initial: int = 10          # points in the starting set (8 equal + 2 extrema, fewer if they coincide)
 
     @property
     def compression(self) -> float:
@@ -103,10 +104,12 @@ def plan_section(dense: np.ndarray, index: int = 0, tolerance: float = DEFAULT_T
     arc = np.concatenate([[0.0], np.cumsum(seglen)])      # arc[i] at point i, arc[n] = perimeter
     per = arc[-1]
     start = arc[i_le]
-    targets = np.mod(start + per * np.arange(N_EQUAL) / N_EQUAL, per)
+    # half a spacing off the LE peak, so that the 8 + 2 starting points are 10 distinct points
+    targets = np.mod(start + per * (np.arange(N_EQUAL) + 0.5) / N_EQUAL, per)
     equal = np.searchsorted(arc[:-1], targets)
     equal = np.clip(equal, 0, n - 1)
     keep = np.unique(np.concatenate([equal, [i_le, i_te]]))
+    initial = len(keep)
     max_points = max_points or n
     # arc-length position of every dense point, to start its projection on the plan curve
     it = 0
@@ -130,10 +133,60 @@ def plan_section(dense: np.ndarray, index: int = 0, tolerance: float = DEFAULT_T
             if worst in keep:
                 break
         keep = np.sort(np.append(keep, worst))
-    return SectionPlan(index, keep, P[keep], n, float(h), it, (i_le, i_te))
+    return SectionPlan(index, keep, P[keep], n, float(h), it, (i_le, i_te), initial)
 
 
 def plan_sections(sections: list[np.ndarray], tolerance: float = DEFAULT_TOLERANCE,
                   span_axis: np.ndarray | None = None) -> list[SectionPlan]:
     """Plans of several dense sections (one per section, hub to tip)."""
     return [plan_section(p, k, tolerance, span_axis) for k, p in enumerate(sections)]
+
+
+def cut_surface(surface, origin: np.ndarray, normal: np.ndarray, step: float = 0.1,
+                n_u: int = 3000, n_v: int = 40) -> np.ndarray:
+    """Points (m, 3) of the closed section of a u-periodic blade surface by the plane
+    ``normal·(x − origin) = 0``, one every ``step`` mm of arc length (mm).
+
+    Each u iso-line (spanwise) must cross the plane once: the sign change of the plane
+    distance along v is found on a grid, then Newton on ``f(v) = n·S(u, v) − d`` gives the
+    crossing to round-off; the loop of crossings is resampled at equal arc length (linear in
+    u between 3000 exact crossings, refined again by Newton). Raises :class:`BladeReconError`
+    when the plane misses the surface.
+    """
+    from .bspline import evaluate_surface, surface_derivatives
+
+    n = np.asarray(normal, float) / np.linalg.norm(normal)
+    d = float(n @ np.asarray(origin, float))
+    u_lo, u_hi = float(surface.u_knots[0]), float(surface.u_knots[-1])
+    v_lo, v_hi = float(surface.v_knots[0]), float(surface.v_knots[-1])
+
+    def crossings(u):
+        vg = np.linspace(v_lo, v_hi, n_v)
+        uu, vv = np.meshgrid(u, vg, indexing="ij")
+        f = (evaluate_surface(surface, uu.ravel(), vv.ravel()) @ n - d).reshape(u.size, n_v)
+        s = np.sign(f)
+        change = s[:, :-1] * s[:, 1:] <= 0
+        if not change.any(axis=1).all():
+            raise BladeReconError(f"the plane through {np.round(origin, 3).tolist()} mm (normal "
+                                  f"{np.round(n, 4).tolist()}) does not cross the nominal all round: choose a "
+                                  "height inside the blade")
+        j = np.argmax(change, axis=1)
+        f0, f1 = f[np.arange(u.size), j], f[np.arange(u.size), j + 1]
+        v = vg[j] + (vg[j + 1] - vg[j]) * f0 / np.where(f0 != f1, f0 - f1, 1.0)
+        for _ in range(30):
+            der = surface_derivatives(surface, u, v, 1)
+            g = der[:, 0, 0] @ n - d
+            gv = der[:, 0, 1] @ n
+            step_v = -g / np.where(np.abs(gv) > 1e-300, gv, 1e-300)
+            v = np.clip(v + step_v, v_lo, v_hi)
+            if np.abs(step_v).max() < 1e-14 * (v_hi - v_lo):
+                break
+        return v
+
+    u = u_lo + (u_hi - u_lo) * np.arange(n_u) / n_u
+    pts = evaluate_surface(surface, u, crossings(u))
+    seg = np.linalg.norm(np.roll(pts, -1, axis=0) - pts, axis=1)
+    arc = np.concatenate([[0.0], np.cumsum(seg)])
+    m = max(int(round(arc[-1] / step)), 20)
+    ut = np.interp(arc[-1] * np.arange(m) / m, arc, np.concatenate([u, [u_hi]]))
+    return evaluate_surface(surface, ut, crossings(ut))

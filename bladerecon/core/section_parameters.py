@@ -4,8 +4,10 @@ Measured on a :class:`~bladerecon.core.segmentation.Segmentation` (section in it
 best-fit plane; see there for LE/TE, regions and the frame):
 
 * **LE / TE points**: ends of the section along its chord (tangent ⟂ chord).
-* **chord**: |TE − LE|; **stagger**: angle of LE→TE from e1 (+x projected on the plane)
-  about the plane normal (≈ +z), degrees in (−180, 180].
+* **chord**: |TE − LE| in space (for a non-planar stream-surface section this includes the
+  rise of the flow path; ``chord_in_plane`` is the projected one); **stagger**: angle of
+  LE→TE from e1 (+x projected on the plane) about the plane normal (≈ +z), degrees in
+  (−180, 180]. Thickness, radii and angles are measured in the section plane.
 * **mean camber line**: centres of the inscribed circles. For each station on the pressure
   side (normal n pointing into the blade) the circle tangent there grows along n until it
   touches the suction half: ``dist(p + r n, suction) = r``, solved by bisection for all
@@ -65,6 +67,7 @@ class SectionParameters:
     te_center: np.ndarray | None = None
     throat: dict | None = None
     warnings: tuple = ()
+    chord_in_plane: float = 0.0       # chord in the section plane (= chord for planar sections)
 
     def as_dict(self) -> dict:
         d = {"index": self.index, "points": self.points, "le": self.le.tolist(), "te": self.te.tolist(),
@@ -72,7 +75,7 @@ class SectionParameters:
              "max_thickness_pos": self.max_thickness_pos, "max_thickness_pos_frac": self.max_thickness_pos_frac,
              "le_radius": self.le_radius, "te_radius": self.te_radius,
              "inlet_angle_deg": self.inlet_angle_deg, "outlet_angle_deg": self.outlet_angle_deg,
-             "thickness_at": self.thickness_at, "le_fit_points": self.le_fit_points,
+             "chord_in_plane": self.chord_in_plane, "thickness_at": self.thickness_at, "le_fit_points": self.le_fit_points,
              "te_fit_points": self.te_fit_points, "warnings": list(self.warnings)}
         if self.throat is not None:
             d["throat"] = {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in self.throat.items()}
@@ -228,7 +231,6 @@ def measure_section(seg: Segmentation, offsets: tuple[float, ...] = (), n_points
     :class:`BladeReconError` (section, edge, points had/needed); with ``strict_radius=False``
     that radius is None instead and the message goes to ``warnings``.
     """
-    fr = seg.frame
     u = (seg.te - seg.le) / seg.chord
     c, r = inscribed_circles(seg)
     x = (c - seg.le) @ u
@@ -263,17 +265,18 @@ def measure_section(seg: Segmentation, offsets: tuple[float, ...] = (), n_points
         for name, xx in (("le", off), ("te", seg.chord - off)):
             val = float(2 * np.interp(xx, x, r)) if x[0] <= xx <= x[-1] else None
             thickness_at[f"{name}+{off:g}"] = val
+    le3, te3 = seg.lift(seg.le)[0], seg.lift(seg.te)[0]
     inlet = _metal_angle(seg, c, True, le_c)
     outlet = _metal_angle(seg, c, False, te_c)
     return SectionParameters(
         index=seg.index, points=int(n_points if n_points is not None else len(seg.points2d)),
-        le=fr.to_space(seg.le)[0], te=fr.to_space(seg.te)[0], chord=seg.chord,
+        le=le3, te=te3, chord=float(np.linalg.norm(te3 - le3)), chord_in_plane=seg.chord,
         stagger_deg=_angle_deg(u), max_thickness=2 * r_max, max_thickness_pos=x_max,
         max_thickness_pos_frac=x_max / seg.chord, le_radius=le_r, te_radius=te_r,
-        inlet_angle_deg=inlet, outlet_angle_deg=outlet, camber=fr.to_space(c), camber_thickness=2 * r,
+        inlet_angle_deg=inlet, outlet_angle_deg=outlet, camber=seg.lift(c), camber_thickness=2 * r,
         thickness_at=thickness_at, le_fit_points=le_n, te_fit_points=te_n,
-        le_center=fr.to_space(le_c)[0], te_center=fr.to_space(te_c)[0],
-        throat=None if seg.throat is None else {**seg.throat, "point": fr.to_space(seg.throat["point"])[0]},
+        le_center=seg.lift(le_c)[0], te_center=seg.lift(te_c)[0],
+        throat=None if seg.throat is None else {**seg.throat, "point": seg.lift(seg.throat["point"])[0]},
         warnings=tuple(warnings))
 
 
@@ -293,6 +296,6 @@ def segment_sections(section_points: list[np.ndarray], span_axis: np.ndarray | N
     out = []
     for k, p in enumerate(section_points):
         seg = segment_section(p, k, span_axis, le_hint=hint, throat=throat, max_gap=max_gap)
-        hint = seg.frame.to_space(seg.le)[0]
+        hint = seg.lift(seg.le)[0]
         out.append(seg)
     return out

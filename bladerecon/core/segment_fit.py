@@ -34,7 +34,7 @@ import numpy as np
 from .bspline import approximation_knots, basis_derivatives, curve_derivatives, evaluate_curve, find_spans
 from .errors import BladeReconError
 from .fitting import interpolate_curve, knots_from_full, least_squares_curve
-from .segmentation import LE, PRESSURE, SUCTION, TE, Segmentation
+from .segmentation import LE, NONPLANAR_LIMIT, PRESSURE, SUCTION, TE, Segmentation
 from .spline import BSplineCurve, full_knot_vector
 
 __all__ = ["SegmentedSection", "fit_segmented", "joint_continuity", "sample_segmented",
@@ -133,7 +133,7 @@ def _fit_edge(q: np.ndarray, u: np.ndarray, d_start: np.ndarray, d_end: np.ndarr
     """
     p = 2 * k + 1
     # sparse edge: one free pole per point (the guide keeps them quiet); dense: one per ~3 points
-    n_free = int(np.clip(len(q) + 2 if len(q) <= 12 else len(q) // 3, 2, 24))
+    n_free = int(np.clip(len(q) + 2 if len(q) <= 16 else len(q) // 3, 2, 24))
     n_poles = 2 * (k + 1) + n_free
     n_inner = n_poles - p - 1
     inner = np.linspace(0, 1, n_inner + 2)[1:-1]
@@ -294,15 +294,22 @@ def rebuilt_section_points(seg: Segmentation, ss: SegmentedSection, measured: np
     q = sample_segmented(ss, n)
     fr = seg.frame
     w_meas = (np.asarray(measured, float) - fr.origin) @ fr.normal
-    if np.abs(w_meas).max() < 1e-9:
+    if fr.flatness <= NONPLANAR_LIMIT:      # planar: the offsets are measurement noise
         return fr.to_space(q)
-    # offset of each sample: that of the nearest measured points, interpolated along the loop
-    from scipy.spatial import cKDTree
-    _, i = cKDTree(seg.points2d).query(q, k=2)
-    d0 = np.linalg.norm(seg.points2d[i[:, 0]] - q, axis=1)
-    d1 = np.linalg.norm(seg.points2d[i[:, 1]] - q, axis=1)
-    w = (w_meas[i[:, 0]] * d1 + w_meas[i[:, 1]] * d0) / np.maximum(d0 + d1, 1e-300)
-    return fr.to_space(q) + w[:, None] * fr.normal
+    # offset along the loop: a periodic cubic w(t) through the measured points' (t, w),
+    # evaluated at the samples' feet on the section curve (smooth, so the surface stays fair)
+    from scipy.interpolate import CubicSpline
+    from .projection import project_points_to_curve
+    lo, hi = seg.curve.domain
+    order = np.argsort(seg.t_points)
+    t_m, w_m = seg.t_points[order], w_meas[order]
+    keep = np.concatenate([[True], np.diff(t_m) > 1e-12])
+    t_m, w_m = t_m[keep], w_m[keep]
+    spline = CubicSpline(np.concatenate([t_m, [t_m[0] + (hi - lo)]]), np.concatenate([w_m, [w_m[0]]]),
+                         bc_type="periodic")
+    t_s = project_points_to_curve(seg.curve, q).t
+    t_s = t_m[0] + np.mod(t_s - t_m[0], hi - lo)
+    return fr.to_space(q) + spline(t_s)[:, None] * fr.normal
 
 
 def rebuild_sections(section_points: list[np.ndarray], span_axis: np.ndarray, first_point_is_measured: bool = True,
@@ -316,7 +323,7 @@ def rebuild_sections(section_points: list[np.ndarray], span_axis: np.ndarray, fi
     for seg, measured in zip(segs, section_points):
         ss = fit_segmented(seg, continuity)
         pts = rebuilt_section_points(seg, ss, measured, n)
-        start = int(np.argmin(np.linalg.norm(pts - seg.frame.to_space(seg.le)[0], axis=1)))
+        start = int(np.argmin(np.linalg.norm(pts - seg.lift(seg.le)[0], axis=1)))
         out.append(np.roll(pts, -start, axis=0))
         info.append({"index": seg.index, "continuity": continuity,
                      "joint_position_max": max(j["position"] for j in ss.joints),

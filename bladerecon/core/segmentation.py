@@ -1,9 +1,10 @@
 """Section segmentation: leading-edge region, trailing-edge region, suction side, pressure side.
 
 Seed 000 §2.2. Every closed section is worked on in its own plane (best-fit plane of its
-points, normal oriented along the span axis; :func:`section_frame`), so planar, tilted and
-non-planar (stream-surface) sections are treated alike: a non-planar section is projected
-on its best-fit plane. Units: mm, angles in degrees at the interface.
+points, normal oriented along the span axis; :func:`section_frame`), so planar and tilted
+sections are treated alike; a non-planar (stream-surface) section is projected on the plane
+normal to the span axis (its best-fit plane would lean with the twist and turn the chord).
+Units: mm, angles in degrees at the interface.
 
 Steps (:func:`segment_section`):
 
@@ -39,7 +40,7 @@ towards (mean offset from the chord on the same side as the mean of both sides).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.ndimage import median_filter
@@ -64,6 +65,8 @@ __all__ = [
 LE, SUCTION, TE, PRESSURE = 0, 1, 2, 3
 REGION_NAMES = ("le", "suction", "te", "pressure")
 _TABLE = 8000          # dense samples of the section curve
+#: a section whose points leave their best-fit plane by more than this (mm) is non-planar
+NONPLANAR_LIMIT = 0.05
 
 
 @dataclass(frozen=True)
@@ -121,6 +124,18 @@ class Segmentation:
     suction_forward: bool = True     # True: going +t from the LE runs along the suction side
     labels: np.ndarray | None = None  # region of every measured point (LE, SUCTION, TE, PRESSURE)
     throat: dict | None = None
+    offsets: np.ndarray | None = None  # distance of each measured point from the plane (mm)
+
+    def lift(self, q: np.ndarray) -> np.ndarray:
+        """Plane points (m, 2) -> 3D, with the out-of-plane offset of a non-planar section
+        interpolated from the two nearest measured points (inverse distance)."""
+        q = np.atleast_2d(np.asarray(q, float))
+        base = self.frame.to_space(q)
+        if self.offsets is None or self.frame.flatness <= NONPLANAR_LIMIT:   # planar: offsets are noise
+            return base
+        d, i = cKDTree(self.points2d).query(q, k=2)
+        w = (self.offsets[i[:, 0]] * d[:, 1] + self.offsets[i[:, 1]] * d[:, 0]) / np.maximum(d.sum(axis=1), 1e-300)
+        return base + w[:, None] * self.frame.normal
 
     @property
     def chord(self) -> float:
@@ -168,6 +183,11 @@ class Segmentation:
 def section_frame(points: np.ndarray, span_axis: np.ndarray | None = None) -> SectionFrame:
     """Best-fit plane of a section (least squares, SVD), normal pointing along ``span_axis``.
 
+    A non-planar section (points farther than :data:`NONPLANAR_LIMIT` from their best-fit
+    plane, e.g. a stream-surface section) is projected on the plane normal to ``span_axis``
+    instead, when one is given: the best-fit plane of a twisted stream-surface section leans
+    and would turn its chord angle by degrees (NASA Rotor 67 tip: 20°).
+
     e1 is global +x projected on the plane (+y if the plane is nearly normal to x), so
     angles measured from e1 about the normal are "from +x about +z" for a section in a
     plane z = const. Units mm.
@@ -179,6 +199,10 @@ def section_frame(points: np.ndarray, span_axis: np.ndarray | None = None) -> Se
     n = np.linalg.svd(P - origin, full_matrices=False)[2][-1]
     if n @ a < 0:
         n = -n
+    if span_axis is not None and np.abs((P - origin) @ n).max() > NONPLANAR_LIMIT:
+        # a stream-surface section: its best-fit plane leans with the blade's twist and would
+        # turn the chord; the plane normal to the span axis keeps angles about the span
+        n = a
     ref = np.array([1.0, 0.0, 0.0])
     if np.linalg.norm(np.cross(ref, n)) < 0.3:
         ref = np.array([0.0, 1.0, 0.0])
@@ -270,11 +294,11 @@ def _chord_ends(curve: BSplineCurve, t: np.ndarray, pts: np.ndarray) -> tuple[fl
     return float(ts[0]), float(ts[1])
 
 
-def _edge_analysis(kappa: np.ndarray, arc: np.ndarray, i_end: int, perimeter: float, chord: float,
-                   flank_level: float):
+def _edge_analysis(kappa: np.ndarray, i_end: int, perimeter: float, chord: float, flank_level: float):
     """Curvature peak and the two joints (steepest curvature drop) around one end.
 
-    ``kappa``/``arc`` are the dense table; ``i_end`` the index of the edge point. Returns
+    ``kappa`` is the dense table (equal steps in the curve parameter, close to arc length);
+    ``i_end`` the index of the edge point. Returns
     (i_peak, i_minus, i_plus, peak) with i_minus before, i_plus after the end (table indices,
     may wrap).
     """
@@ -330,14 +354,9 @@ def segment_section(points: np.ndarray, index: int = 0, span_axis: np.ndarray | 
     pts = der[:, 0]
     speed = np.linalg.norm(der[:, 1], axis=1)
     kappa = (der[:, 1, 0] * der[:, 2, 1] - der[:, 1, 1] * der[:, 2, 0]) / np.maximum(speed ** 3, 1e-300)
-    if np.mean(kappa) < 0:      # make the loop counter-clockwise in the plane (convex ends > 0)
+    if np.mean(kappa) < 0:      # a clockwise loop in the plane: convex ends get κ > 0 all the same
         kappa = -kappa
-        ccw = False
-    else:
-        ccw = True
-    seg = np.linalg.norm(np.roll(pts, -1, axis=0) - pts, axis=1)
-    perimeter = float(seg.sum())
-    arc = np.concatenate([[0.0], np.cumsum(seg)[:-1]])
+    perimeter = float(np.linalg.norm(np.roll(pts, -1, axis=0) - pts, axis=1).sum())
 
     t_a, t_b = _chord_ends(curve, t, pts)
     ends = evaluate_curve(curve, np.array([t_a, t_b]))
@@ -346,7 +365,7 @@ def segment_section(points: np.ndarray, index: int = 0, span_axis: np.ndarray | 
     info = []
     for t_end in (t_a, t_b):
         i_end = int(np.round((t_end - lo) / (hi - lo) * _TABLE)) % _TABLE
-        i_peak, i_m, i_p, peak = _edge_analysis(kappa, arc, i_end, perimeter, chord, flank_level)
+        i_peak, i_m, i_p, peak = _edge_analysis(kappa, i_end, perimeter, chord, flank_level)
         if not peak > peak_ratio * max(flank_level, 1e-12):
             raise BladeReconError(
                 f"section {index}: no clear LE/TE curvature peak (end curvature {peak:.4g}/mm is not "
@@ -381,23 +400,14 @@ def segment_section(points: np.ndarray, index: int = 0, span_axis: np.ndarray | 
     else:
         joints = {"le_suction": le_info["t_minus"], "le_pressure": le_info["t_plus"],
                   "te_pressure": te_info["t_minus"], "te_suction": te_info["t_plus"]}
-    seg_obj = Segmentation(index, frame, q, curve, method, sc.t_points, le_info["t_end"], te_info["t_end"],
-                           le, te, le_info["t_peak"], te_info["t_peak"], joints, bool(suction_forward))
-    throat_info = None
+    seg = Segmentation(index, frame, q, curve, method, sc.t_points, le_info["t_end"], te_info["t_end"],
+                       le, te, le_info["t_peak"], te_info["t_peak"], joints, bool(suction_forward),
+                       offsets=(P - frame.origin) @ frame.normal)
     if throat is not None:
-        throat_info = _throat_point(seg_obj, throat, pts, t)
-        tj = throat_info["t"]
+        info_throat = _throat_point(seg, throat, pts, t)
         # the TE region starts at the throat point on the suction side (seed 000 Fig. 3)
-        joints = dict(joints)
-        joints["te_suction"] = tj
-    labels = None
-    seg_obj = Segmentation(index, frame, q, curve, method, sc.t_points, le_info["t_end"], te_info["t_end"],
-                           le, te, le_info["t_peak"], te_info["t_peak"], joints, bool(suction_forward),
-                           None, throat_info)
-    labels = seg_obj.label_parameters(sc.t_points)
-    return Segmentation(index, frame, q, curve, method, sc.t_points, le_info["t_end"], te_info["t_end"],
-                        le, te, le_info["t_peak"], te_info["t_peak"], joints, bool(suction_forward),
-                        labels, throat_info)
+        seg = replace(seg, t_joints={**joints, "te_suction": info_throat["t"]}, throat=info_throat)
+    return replace(seg, labels=seg.label_parameters(sc.t_points))
 
 
 def _throat_point(seg: Segmentation, spec: ThroatSpec, pts: np.ndarray, t: np.ndarray) -> dict:

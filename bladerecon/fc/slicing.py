@@ -37,6 +37,9 @@ def cut_sections(path: str, origins: np.ndarray, normals: np.ndarray, step: floa
     FreeCAD, Part = import_freecad()
     if shape is None:
         shape = read_shape(path)
+    fast = _cut_single_face(shape, origins, normals, step)
+    if fast is not None:
+        return fast
     bb = shape.BoundBox
     centre = np.array([bb.Center.x, bb.Center.y, bb.Center.z])
     out = []
@@ -64,6 +67,36 @@ def cut_sections(path: str, origins: np.ndarray, normals: np.ndarray, step: floa
         q = np.column_stack([(pts - o) @ e1, (pts - o) @ e2])
         area = 0.5 * np.sum(q[:, 0] * np.roll(q[:, 1], -1) - np.roll(q[:, 0], -1) * q[:, 1])
         if area < 0:
+            pts = pts[::-1]
+        out.append(pts)
+    return out
+
+
+def _cut_single_face(shape, origins, normals, step):
+    """One whole u-periodic B-spline face (a BladeRecon or CAD blade surface): cut it in the
+    core (:func:`bladerecon.core.plan.cut_surface`, ~100x faster than ``Shape.slice``).
+    None when the shape is anything else, or a plane does not cross it all round."""
+    from bladerecon.core.plan import cut_surface
+
+    from .compare import _single_bspline_face
+    from .convert import from_part_surface
+
+    face = _single_bspline_face(shape)
+    if face is None:
+        return None
+    surf = from_part_surface(face.Surface)
+    if not surf.u_periodic:
+        return None
+    out = []
+    for o, n in zip(np.asarray(origins, float), np.asarray(normals, float)):
+        try:
+            pts = cut_surface(surf, o, n, step)
+        except BladeReconError:
+            return None
+        e1 = np.cross(n, np.eye(3)[np.argmin(np.abs(n))])
+        e2 = np.cross(n, e1)
+        q = np.column_stack([(pts - o) @ e1, (pts - o) @ e2])
+        if 0.5 * np.sum(q[:, 0] * np.roll(q[:, 1], -1) - np.roll(q[:, 0], -1) * q[:, 1]) < 0:
             pts = pts[::-1]
         out.append(pts)
     return out
