@@ -318,39 +318,55 @@ def _split(faces: np.ndarray, idx: np.ndarray, axis: np.ndarray, at: np.ndarray)
 
 def _split_choice(faces: np.ndarray, idx: np.ndarray, uv: np.ndarray | None, loc: np.ndarray | None,
                   lengths: tuple[float, float], min_lines: int) -> tuple[np.ndarray, np.ndarray]:
-    """Axis (0: cut at u = mid, 1: at v = mid; -1: no useful cut) for faces ``idx``.
+    """Axis (0: cut at u = at, 1: at v = at; -1: no useful cut) and cut position for faces ``idx``.
 
-    Seed 002 §2.2.2: across the longer side at the midpoint. Our additions, with the points
-    ``uv`` and the face ``loc`` holding each: a cut is useful only if each half keeps points
-    on at least ``min_lines`` distinct coordinate values across the cut (sections measured
-    on a few span lines otherwise get cut between the lines, where the new poles are left
-    to oscillate); if the longer side's cut is not useful the other one is taken, if neither,
-    none. ``lengths``: model lengths (mm) of the parameter directions, so that "longer"
-    means longer on the part (seed 002's rectangular parameterisation is about isometric;
-    a blade's (u, v) is not).
+    Seed 002 §2.2.2: across the longer side at the midpoint. Our additions, used only with
+    the points ``uv`` and the face ``loc`` holding each: a cut must leave each half with
+    points on at least ``min_lines`` distinct coordinate values across it (measured sections
+    lie on a few span lines; a cut between two of them leaves the new poles undetermined).
+    Order of preference: longer side at the midpoint; the other side at the midpoint; the
+    longer, then the other side between the two middle data lines of the cell; else no cut.
+    ``lengths``: model lengths (mm) of the parameter directions, so that "longer" means
+    longer on the part (seed 002's rectangular parameterisation is about isometric; a
+    blade's (u, v) is not).
     """
     f = faces[idx]
     du, dv = f[:, 1] - f[:, 0], f[:, 3] - f[:, 2]
     mid = np.column_stack([0.5 * (f[:, 0] + f[:, 1]), 0.5 * (f[:, 2] + f[:, 3])])
     axis = np.where(du * lengths[0] >= dv * lengths[1], 0, 1)
     if uv is None or loc is None or not len(idx):
-        return axis, mid
+        return axis, np.where(axis == 0, mid[:, 0], mid[:, 1])
     pos = np.full(len(faces), -1)
     pos[idx] = np.arange(len(idx))
     k = pos[loc]
     inside = k >= 0
     k, p = k[inside], uv[inside]
-    ok = []
+    mid_ok, data_ok, data_at = [], [], []
     for col in (0, 1):
-        side = (p[:, col] >= mid[k, col]).astype(int)
-        lines = np.unique(np.column_stack([k, side, p[:, col]]), axis=0)
-        n = np.bincount(lines[:, 0].astype(int) * 2 + lines[:, 1].astype(int), minlength=2 * len(idx))
-        ok.append((n[0::2] >= min_lines) & (n[1::2] >= min_lines))
-    u_ok, v_ok = ok
-    pref_ok = np.where(axis == 0, u_ok, v_ok)
-    other_ok = np.where(axis == 0, v_ok, u_ok)
-    axis = np.where(pref_ok, axis, np.where(other_ok, 1 - axis, -1))
-    return axis, mid
+        lines = np.unique(np.column_stack([k, p[:, col]]), axis=0)       # sorted by face, value
+        kk = lines[:, 0].astype(int)
+        n = np.bincount(kk, minlength=len(idx))
+        below = np.bincount(kk[lines[:, 1] < mid[kk, col]], minlength=len(idx))
+        mid_ok.append((below >= min_lines) & (n - below >= min_lines))
+        start = np.concatenate([[0], np.cumsum(n)[:-1]])
+        half = n // 2
+        lo = lines[np.clip(start + half - 1, 0, len(lines) - 1), 1] if len(lines) else np.zeros(len(idx))
+        hi = lines[np.clip(start + half, 0, len(lines) - 1), 1] if len(lines) else np.zeros(len(idx))
+        data_ok.append((half >= min_lines) & (n - half >= min_lines))
+        data_at.append(0.5 * (lo + hi))
+    out_axis = np.full(len(idx), -1)
+    out_at = np.zeros(len(idx))
+    other = 1 - axis
+    rows = np.arange(len(idx))
+    choices = ((axis, np.stack(mid_ok)[axis, rows], mid[rows, axis]),
+               (other, np.stack(mid_ok)[other, rows], mid[rows, other]),
+               (axis, np.stack(data_ok)[axis, rows], np.stack(data_at)[axis, rows]),
+               (other, np.stack(data_ok)[other, rows], np.stack(data_at)[other, rows]))
+    for ax, ok, at in choices:
+        take = ok & (out_axis < 0)
+        out_axis[take] = ax[take]
+        out_at[take] = at[take]
+    return out_axis, out_at
 
 
 def split_longer_side(faces: np.ndarray, idx: np.ndarray, uv: np.ndarray | None = None,
@@ -360,9 +376,8 @@ def split_longer_side(faces: np.ndarray, idx: np.ndarray, uv: np.ndarray | None 
     the data-aware choice of :func:`_split_choice` when the points are given (faces with no
     useful cut are left as they are)."""
     idx = np.asarray(idx, int)
-    axis, mid = _split_choice(faces, idx, uv, loc, lengths, min_lines)
+    axis, at = _split_choice(faces, idx, uv, loc, lengths, min_lines)
     keep = axis >= 0
-    at = np.where(axis == 0, mid[:, 0], mid[:, 1])
     return _split(faces, idx[keep], axis[keep], at[keep])
 
 
@@ -754,7 +769,7 @@ def fit_tspline(uv: np.ndarray, values: np.ndarray, eps: float, n_data: int | No
                 n_feature: int | None = None, xyz: np.ndarray | None = None, mu: float = 0.05,
                 limits: FitLimits = FitLimits(), local: bool = True,
                 max_candidates: int = 40, initial: TMesh | None = None,
-                lengths: tuple[float, float] | None = None, prior=None) -> TSplineFit:
+                lengths: tuple[float, float] | None = None, prior=None, ridge: float | None = None) -> TSplineFit:
     """Adaptive ASTS fitting (seed 002 Fig. 2): initial mesh → AST → least squares →
     [split cells with error > eps → AST → local least squares (eq. 10)]* .
 
@@ -767,6 +782,9 @@ def fit_tspline(uv: np.ndarray, values: np.ndarray, eps: float, n_data: int | No
     the tiny ridge of the solves pulls poles towards it at their Greville points, which only
     matters where the data leave poles free (between measured sections). Default: the
     nearest data point for the first solve, the current T-spline for refined poles.
+    ``ridge``: weight of that pull relative to the mean diagonal of AᵀA (default 1e-10, or
+    1e-4 with a ``prior``: then it also damps poles the data fix only weakly, e.g. on cells
+    between two close sections).
     ``lengths``: model lengths of the u and v directions for the longer-side rule (default:
     estimated from ``xyz`` by :func:`parameter_lengths`).
     Stops at max error <= eps, or at a :class:`FitLimits` limit with ``converged=False``
@@ -804,8 +822,10 @@ def fit_tspline(uv: np.ndarray, values: np.ndarray, eps: float, n_data: int | No
     cache: dict = {}
     nodes, ku, kv = local_knots(mesh)
     A = basis_matrix(uv, ku, kv, index, cache, nodes)
+    if ridge is None:
+        ridge = _RIDGE if prior is None else 1e-4
     nearest = _nearest_data(uv, values)
-    poles = _least_squares(A, values, (prior or nearest)(greville(ku, kv)))
+    poles = _least_squares(A, values, (prior or nearest)(greville(ku, kv)), ridge)
     err = np.linalg.norm(A @ poles - values, axis=1)
     history = [{"control_points": len(nodes), "max": float(err.max()), "mean": float(err.mean()),
                 "changed": len(nodes)}]
@@ -824,6 +844,9 @@ def fit_tspline(uv: np.ndarray, values: np.ndarray, eps: float, n_data: int | No
             reason = f"cells holding points with error > tolerance are at the smallest size ({limits.min_cell:g})"
             break
         split_faces = split_longer_side(mesh.faces, bad, uv, loc, lengths)
+        if len(split_faces) == len(mesh.faces):
+            # fall back to cuts that keep one data line per half (e.g. between two sections)
+            split_faces = split_longer_side(mesh.faces, bad, uv, loc, lengths, min_lines=1)
         if len(split_faces) == len(mesh.faces):
             reason = "no cell holding points with error > tolerance can be cut with data on both halves"
             break
@@ -851,10 +874,10 @@ def fit_tspline(uv: np.ndarray, values: np.ndarray, eps: float, n_data: int | No
             Ar = Ar[rows]
             Ak = A[rows][:, np.flatnonzero(~changed)]
             rhs = values[rows] - Ak @ new_poles[~changed]
-            new_poles[changed] = _least_squares(Ar.tocsc(), rhs, guess)
+            new_poles[changed] = _least_squares(Ar.tocsc(), rhs, guess, ridge)
         else:
             g = greville(new_ku, new_kv)
-            new_poles = _least_squares(A, values, prior(g) if prior else basis_matrix(g, ku, kv) @ poles)
+            new_poles = _least_squares(A, values, prior(g) if prior else basis_matrix(g, ku, kv) @ poles, ridge)
         mesh, nodes, ku, kv, poles = new_mesh, new_nodes, new_ku, new_kv, new_poles
         alive = set(zip(map(tuple, nodes), map(tuple, ku), map(tuple, kv)))
         for key in [k for k in cache if k not in alive]:
