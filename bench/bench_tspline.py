@@ -56,7 +56,7 @@ def asts_row(label: str, uv, values, eps, xyz, **kw) -> dict:
     return {"method": label, "control_points": fit.n_control_points, "max": fit.max_error,
             "mean": fit.mean_error, "refinements": fit.refinements, "seconds": sec,
             "converged": fit.converged, "stop": fit.stop_reason, "bezier_patches": len(patches),
-            "tmesh_faces": int(len(fit.mesh.reduced_faces())), "ast_steps": fit.ast_steps}
+            "tmesh_faces": int(len(fit.mesh.reduced_faces())), "ast_steps": fit.ast_steps, "_fit": fit}
 
 
 def tensor_row(label: str, uv, values, nu, nv, knots="uniform") -> dict:
@@ -82,6 +82,7 @@ def bench_sinc(quick: bool) -> dict:
     eps = 0.02
     rows = []
     log("sinc: ASTS default N_d, N_f")
+    strip = lambda r: {k: v for k, v in r.items() if k != "_fit"}
     rows.append(asts_row(f"ASTS (ours), default N_d={m // 16}, N_f={m // 80}", uv, z, eps, pts))
     log("sinc: ASTS from the unit square")
     rows.append(asts_row("ASTS (ours), no adaptive initial mesh (unit square)", uv, z, eps, pts,
@@ -108,11 +109,12 @@ def bench_sinc(quick: bool) -> dict:
     t = np.linspace(0, 1, 7)[1:-1]
     ref = LSQBivariateSpline(uv[:, 0], uv[:, 1], z, t, t, bbox=[0, 1, 0, 1])
     scipy_max = float(np.abs(ref.ev(uv[:, 0], uv[:, 1]) - z).max())
-    return {"eps": eps, "points": m, "rows": rows, "sweep": sweep, "scipy_9x9_max": scipy_max}
+    return {"eps": eps, "points": m, "rows": [strip(r) for r in rows], "sweep": [strip(r) for r in sweep],
+            "scipy_9x9_max": scipy_max}
 
 
 # ----------------------------------------------------------------------------- blades
-def blade_data(name: str):
+def blade_data(name: str, full: bool = False):
     from bladerecon.core.reconstruct import reconstruct
     if name == "sample blade":
         from bladerecon.core.sample_blade import SampleBlade, sample_sections
@@ -135,7 +137,9 @@ def blade_data(name: str):
     sections = build_sections(ps)
     pts = [s.points for s in sections.sections]
     rec = reconstruct(pts, sections.span_axis, first_point_is_measured=not sections.sections[0].reordered)
-    uv, _, _ = ts.normalise_parameters(np.column_stack([rec.point_u, rec.point_v]))
+    uv, lo, scale = ts.normalise_parameters(np.column_stack([rec.point_u, rec.point_v]))
+    if full:
+        return uv, np.concatenate(pts), desc, len(pts), rec.surface, lo, scale
     return uv, np.concatenate(pts), desc, len(pts)
 
 
@@ -167,17 +171,29 @@ def bench_blades(quick: bool) -> list[dict]:
     out = []
     for name in ("sample blade", "NASA Rotor 37"):
         log(f"{name}: reconstruct for parameters")
-        data = blade_data(name)
+        data = blade_data(name, full=True)
         if data is None:
             log(f"{name}: data missing, skipped")
             continue
-        uv, xyz, desc, nsec = data
+        uv, xyz, desc, nsec, surface, lo, scale = data
+        from bladerecon.core.bspline import evaluate_surface
+
+        def prior(g):   # the section reconstruction, as in `python3 -m bladerecon tspline`
+            return evaluate_surface(surface, lo[0] + scale[0] * g[:, 0], lo[1] + scale[1] * g[:, 1])
+        probe = np.random.default_rng(0).random((5000, 2))
         for eps in ((0.05,) if quick else (0.05, 0.01)):
-            log(f"{name}: ASTS eps={eps}")
-            a = asts_row("ASTS (ours)", uv, xyz, eps, xyz)
-            log(f"{name}: {a['control_points']} cps, {a['seconds']:.1f} s; tensor search")
-            t = fewest_tensor(uv, xyz, eps, nsec)
-            out.append({"blade": name, "data": desc, "points": int(len(uv)), "eps": eps, "asts": a, "tensor": t})
+            t = None
+            for order in ts.CUT_ORDERS:
+                log(f"{name}: ASTS eps={eps} cut order {order}")
+                a = asts_row(f"ASTS (ours), {order}", uv, xyz, eps, xyz, prior=prior, cut_order=order)
+                a["between_sections_max"] = float(np.linalg.norm(ts.evaluate(a.pop("_fit"), probe) - prior(probe),
+                                                                 axis=1).max())
+                log(f"{name}: {a['control_points']} cps, {a['seconds']:.1f} s")
+                if t is None:
+                    log(f"{name}: tensor search")
+                    t = fewest_tensor(uv, xyz, eps, nsec)
+                out.append({"blade": name, "data": desc, "points": int(len(uv)), "eps": eps, "asts": a,
+                            "cut_order": order, "tensor": t})
     return out
 
 
@@ -207,16 +223,21 @@ def markdown(sinc: dict, blades: list[dict], env: str) -> str:
                      f"{r['seconds']:.2f} |")
         L.append("")
     L += ["## Blades: control points for the same max error |S(u,v) - P| (mm)", "",
-          "| blade | points | eps / mm | ASTS control points | ASTS max | ASTS time / s | tensor NURBS poles | "
-          "tensor max | ratio tensor/ASTS |", "|---|---|---|---|---|---|---|---|---|"]
+          "| blade | points | eps / mm | cut order | ASTS control points | ASTS max | ASTS time / s | ASTS vs reconstruction, "
+          "max over [0,1]² / mm | tensor NURBS poles | tensor max | ratio tensor/ASTS |",
+          "|---|---|---|---|---|---|---|---|---|---|---|"]
     for b in blades:
         a, t = b["asts"], b["tensor"]
         tp = f"{t['poles']} = {t['control_points']} ({t['knots']})" if t else "not reached"
         ratio = f"{t['control_points'] / a['control_points']:.2f}" if t else "–"
         conv = "" if a["converged"] else " (not converged)"
-        L.append(f"| {b['data']} | {b['points']} | {b['eps']} | {a['control_points']}{conv} | {fmt(a['max'])} | "
-                 f"{a['seconds']:.1f} | {tp} | {fmt(t['max']) if t else '–'} | {ratio} |")
-    L.append("")
+        L.append(f"| {b['data']} | {b['points']} | {b['eps']} | {b['cut_order']} | {a['control_points']}{conv} | {fmt(a['max'])} | "
+                 f"{a['seconds']:.1f} | {a['between_sections_max']:.3f} | {tp} | {fmt(t['max']) if t else '–'} | {ratio} |")
+    L += ["", "Cut order (our addition to seed 002's midpoint rule, see `core/tspline.py` `_split_choice`): "
+          "`longer-side` keeps the longer side and moves the cut between the cell's middle data lines when the "
+          "midpoint would leave a half with fewer than 2 lines (default); `switch-side` cuts the other side "
+          "at its midpoint instead. Tensor search: for each nv the smallest nu by bisection (error assumed to "
+          "fall with nu), uniform and eq. 9.69 knots, not exhaustive.", ""]
     return "\n".join(L)
 
 

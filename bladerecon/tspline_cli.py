@@ -37,6 +37,9 @@ def add_parser(sub) -> None:
     p.add_argument("--max-control-points", type=int, default=6000, help="control point limit (default 6000)")
     p.add_argument("--nd", type=int, help="N_d: split initial cells holding more points (default points/16)")
     p.add_argument("--nf", type=int, help="N_f: split initial cells holding more feature points (default points/80)")
+    p.add_argument("--cut-order", choices=("longer-side", "switch-side"), default="longer-side",
+                   help="where a cell that the midpoint would starve of data is cut: on its longer side between "
+                        "the middle data lines (default) or on its other side")
     p.add_argument("--json", action="store_true", help="print one JSON summary object to stdout")
     p.add_argument("--quiet", action="store_true", help="no progress messages on stderr")
     p.set_defaults(run=run_tspline)
@@ -103,7 +106,8 @@ def _blade_parameters(path: str, say) -> tuple[np.ndarray, np.ndarray, str] | No
 
 
 def fit_point_file(path: str, tolerance: float, zmap: bool = False, nd: int | None = None, nf: int | None = None,
-                   max_iterations: int = 40, max_control_points: int = 6000, say=lambda msg: None):
+                   max_iterations: int = 40, max_control_points: int = 6000, say=lambda msg: None,
+                   cut_order: str = "longer-side"):
     """Read ``path``, choose the parameterisation from the data, fit (seed 002) and extract
     the Bézier patches (3D control points, mm). Returns (fit, patches, summary dict)."""
     from .core import tspline as ts
@@ -134,7 +138,7 @@ def fit_point_file(path: str, tolerance: float, zmap: bool = False, nd: int | No
             return evaluate_surface(surface, origin[0] + scale[0] * g[:, 0], origin[1] + scale[1] * g[:, 1])
     limits = ts.FitLimits(max_iterations=max_iterations, max_control_points=max_control_points)
     fit = ts.fit_tspline(uv, values, tolerance, n_data=nd, n_feature=nf, xyz=xyz, limits=limits,
-                         prior=None if blade is None else prior)
+                         prior=None if blade is None else prior, cut_order=cut_order)
     dup = fit.duplicates
     if dup.get("points_sharing_parameters"):
         say(f"warning: degenerate parameterisation: {dup['points_sharing_parameters']} points share a "
@@ -174,7 +178,8 @@ def run_tspline(args: argparse.Namespace) -> dict:
         if os.path.abspath(args.output) == os.path.abspath(args.input):
             raise BladeReconError(f"--output {args.output} is the input file: choose another name")
     _, patches, summary = fit_point_file(args.input, args.tolerance, args.zmap, args.nd, args.nf,
-                                         args.max_iterations, args.max_control_points, lambda m: _say(args, m))
+                                         args.max_iterations, args.max_control_points, lambda m: _say(args, m),
+                                         args.cut_order)
     t_fit = time.perf_counter()
     if args.output:
         from .fc.tspline_export import write_tspline_step

@@ -52,6 +52,7 @@ __all__ = [
 
 _INF = np.inf
 _RIDGE = 1e-10
+CUT_ORDERS = ("longer-side", "switch-side")
 
 
 # ----------------------------------------------------------------------------- T-mesh
@@ -317,52 +318,76 @@ def _split(faces: np.ndarray, idx: np.ndarray, axis: np.ndarray, at: np.ndarray)
 
 
 def _split_choice(faces: np.ndarray, idx: np.ndarray, uv: np.ndarray | None, loc: np.ndarray | None,
-                  lengths: tuple[float, float], min_lines: int) -> tuple[np.ndarray, np.ndarray]:
-    """Axis (0: cut at u = mid, 1: at v = mid; -1: no useful cut) for faces ``idx``.
+                  lengths: tuple[float, float], min_lines: int, order: str = "longer-side"
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """Axis (0: cut at u = at, 1: at v = at; -1: no useful cut) and cut position for faces ``idx``.
 
-    Seed 002 §2.2.2: across the longer side at the midpoint. Our additions, with the points
-    ``uv`` and the face ``loc`` holding each: a cut is useful only if each half keeps points
-    on at least ``min_lines`` distinct coordinate values across the cut (sections measured
-    on a few span lines otherwise get cut between the lines, where the new poles are left
-    to oscillate); if the longer side's cut is not useful the other one is taken, if neither,
-    none. ``lengths``: model lengths (mm) of the parameter directions, so that "longer"
-    means longer on the part (seed 002's rectangular parameterisation is about isometric;
-    a blade's (u, v) is not).
+    Seed 002 §2.2.2: across the longer side at the midpoint. Our additions, used only with
+    the points ``uv`` and the face ``loc`` holding each: a cut must leave each half with
+    points on at least ``min_lines`` distinct coordinate values across it (measured sections
+    lie on a few span lines; a cut between two of them leaves the new poles undetermined).
+    Order of preference, ``order="longer-side"`` (default, closest to the seed: the side is
+    never changed while a cut on it keeps one data line per half): longer side at the
+    midpoint; longer side between the two middle data lines of the cell; then the other
+    side. ``order="switch-side"``: longer side at the midpoint; the other side at the
+    midpoint; then cuts between middle data lines. Else no cut.
+    ``lengths``: model lengths (mm) of the parameter directions, so that "longer" means
+    longer on the part (seed 002's rectangular parameterisation is about isometric; a
+    blade's (u, v) is not).
     """
     f = faces[idx]
     du, dv = f[:, 1] - f[:, 0], f[:, 3] - f[:, 2]
     mid = np.column_stack([0.5 * (f[:, 0] + f[:, 1]), 0.5 * (f[:, 2] + f[:, 3])])
     axis = np.where(du * lengths[0] >= dv * lengths[1], 0, 1)
     if uv is None or loc is None or not len(idx):
-        return axis, mid
+        return axis, np.where(axis == 0, mid[:, 0], mid[:, 1])
     pos = np.full(len(faces), -1)
     pos[idx] = np.arange(len(idx))
     k = pos[loc]
     inside = k >= 0
     k, p = k[inside], uv[inside]
-    ok = []
+    mid_ok, data_ok, data_at, n_all = [], [], [], []
     for col in (0, 1):
-        side = (p[:, col] >= mid[k, col]).astype(int)
-        lines = np.unique(np.column_stack([k, side, p[:, col]]), axis=0)
-        n = np.bincount(lines[:, 0].astype(int) * 2 + lines[:, 1].astype(int), minlength=2 * len(idx))
-        ok.append((n[0::2] >= min_lines) & (n[1::2] >= min_lines))
-    u_ok, v_ok = ok
-    pref_ok = np.where(axis == 0, u_ok, v_ok)
-    other_ok = np.where(axis == 0, v_ok, u_ok)
-    axis = np.where(pref_ok, axis, np.where(other_ok, 1 - axis, -1))
-    return axis, mid
+        lines = np.unique(np.column_stack([k, p[:, col]]), axis=0)       # sorted by face, value
+        kk = lines[:, 0].astype(int)
+        n = np.bincount(kk, minlength=len(idx))
+        below = np.bincount(kk[lines[:, 1] < mid[kk, col]], minlength=len(idx))
+        mid_ok.append((below >= min_lines) & (n - below >= min_lines))
+        start = np.concatenate([[0], np.cumsum(n)[:-1]])
+        half = n // 2
+        lo = lines[np.clip(start + half - 1, 0, len(lines) - 1), 1] if len(lines) else np.zeros(len(idx))
+        hi = lines[np.clip(start + half, 0, len(lines) - 1), 1] if len(lines) else np.zeros(len(idx))
+        data_ok.append((half >= min_lines) & (n - half >= min_lines))
+        data_at.append(0.5 * (lo + hi))
+        n_all.append(n)
+    out_axis = np.full(len(idx), -1)
+    out_at = np.zeros(len(idx))
+    other = 1 - axis
+    rows = np.arange(len(idx))
+    n_lines = np.stack(n_all)
+    one_each = n_lines >= 2               # a cut between the middle lines keeps one line per half
+    choices = ((axis, np.stack(mid_ok)[axis, rows], mid[rows, axis]),
+               (axis, one_each[axis, rows] if order == "longer-side" else np.zeros(len(idx), bool),
+                np.stack(data_at)[axis, rows]),
+               (other, np.stack(mid_ok)[other, rows], mid[rows, other]),
+               (axis, np.stack(data_ok)[axis, rows], np.stack(data_at)[axis, rows]),
+               (other, np.stack(data_ok)[other, rows], np.stack(data_at)[other, rows]))
+    for ax, ok, at in choices:
+        take = ok & (out_axis < 0)
+        out_axis[take] = ax[take]
+        out_at[take] = at[take]
+    return out_axis, out_at
 
 
 def split_longer_side(faces: np.ndarray, idx: np.ndarray, uv: np.ndarray | None = None,
                       loc: np.ndarray | None = None, lengths: tuple[float, float] = (1.0, 1.0),
-                      min_lines: int = 2) -> np.ndarray:
+                      min_lines: int = 2, order: str = "longer-side") -> np.ndarray:
     """Split faces ``idx`` across their longer side at the midpoint (seed 002 §2.2.2), with
     the data-aware choice of :func:`_split_choice` when the points are given (faces with no
     useful cut are left as they are)."""
     idx = np.asarray(idx, int)
-    axis, mid = _split_choice(faces, idx, uv, loc, lengths, min_lines)
+    axis, at = _split_choice(faces, idx, uv, loc, lengths, min_lines, order)
     keep = axis >= 0
-    at = np.where(axis == 0, mid[:, 0], mid[:, 1])
     return _split(faces, idx[keep], axis[keep], at[keep])
 
 
@@ -597,7 +622,8 @@ class _FaceLocator:
 
 # ----------------------------------------------------------------------------- initial mesh
 def initial_mesh(uv: np.ndarray, features: np.ndarray, n_data: int, n_feature: int, mu: float = 0.05,
-                 min_size: float = 1.0 / 1024, lengths: tuple[float, float] = (1.0, 1.0)) -> TMesh:
+                 min_size: float = 1.0 / 1024, lengths: tuple[float, float] = (1.0, 1.0),
+                 order: str = "longer-side") -> TMesh:
     """Seed 002 §2.2.2–2.2.3: split [0,1]² cells across their longer side at the midpoint
     while a cell holds > ``n_data`` points or > ``n_feature`` feature points (cells are not
     split below ``min_size``), then add the strip of width ``mu``."""
@@ -613,7 +639,7 @@ def initial_mesh(uv: np.ndarray, features: np.ndarray, n_data: int, n_feature: i
         split = inner_idx[((nd[inner_idx] > n_data) | (nf[inner_idx] > n_feature)) & big]
         if len(split) == 0:
             return TMesh(add_strip(faces, mu), mu)
-        new = split_longer_side(faces, split, uv, loc, lengths)
+        new = split_longer_side(faces, split, uv, loc, lengths, order=order)
         if len(new) == len(faces):      # no cell can be cut with data on both halves
             return TMesh(add_strip(faces, mu), mu)
         faces = new
@@ -754,7 +780,8 @@ def fit_tspline(uv: np.ndarray, values: np.ndarray, eps: float, n_data: int | No
                 n_feature: int | None = None, xyz: np.ndarray | None = None, mu: float = 0.05,
                 limits: FitLimits = FitLimits(), local: bool = True,
                 max_candidates: int = 40, initial: TMesh | None = None,
-                lengths: tuple[float, float] | None = None, prior=None) -> TSplineFit:
+                lengths: tuple[float, float] | None = None, prior=None, ridge: float | None = None,
+                cut_order: str = "longer-side") -> TSplineFit:
     """Adaptive ASTS fitting (seed 002 Fig. 2): initial mesh → AST → least squares →
     [split cells with error > eps → AST → local least squares (eq. 10)]* .
 
@@ -767,6 +794,10 @@ def fit_tspline(uv: np.ndarray, values: np.ndarray, eps: float, n_data: int | No
     the tiny ridge of the solves pulls poles towards it at their Greville points, which only
     matters where the data leave poles free (between measured sections). Default: the
     nearest data point for the first solve, the current T-spline for refined poles.
+    ``ridge``: weight of that pull relative to the mean diagonal of AᵀA (default 1e-10, or
+    1e-4 with a ``prior``: then it also damps poles the data fix only weakly, e.g. on cells
+    between two close sections).
+    ``cut_order``: see :func:`_split_choice` (``longer-side`` or ``switch-side``).
     ``lengths``: model lengths of the u and v directions for the longer-side rule (default:
     estimated from ``xyz`` by :func:`parameter_lengths`).
     Stops at max error <= eps, or at a :class:`FitLimits` limit with ``converged=False``
@@ -782,6 +813,8 @@ def fit_tspline(uv: np.ndarray, values: np.ndarray, eps: float, n_data: int | No
         raise BladeReconError(f"a T-spline fit needs at least 16 points, got {m}")
     if not eps > 0:
         raise BladeReconError(f"--tolerance must be a positive distance, got {eps}")
+    if cut_order not in CUT_ORDERS:
+        raise BladeReconError(f"unknown cut order '{cut_order}': use one of {', '.join(CUT_ORDERS)}")
     if np.any(uv < -1e-12) or np.any(uv > 1 + 1e-12):
         raise BladeReconError("parameters must lie in [0,1]²; normalise them first")
     dups = duplicate_parameters(uv, values)
@@ -796,7 +829,7 @@ def fit_tspline(uv: np.ndarray, values: np.ndarray, eps: float, n_data: int | No
     if lengths is None:
         lengths = parameter_lengths(uv, np.asarray(xyz, float)) if xyz is not None else (1.0, 1.0)
     if initial is None:
-        mesh = initial_mesh(uv, feat, n_data, n_feature, mu, lengths=lengths)
+        mesh = initial_mesh(uv, feat, n_data, n_feature, mu, lengths=lengths, order=cut_order)
     else:
         mesh = initial
     mesh, ast_steps = make_analysis_suitable(mesh, max_candidates)
@@ -804,8 +837,10 @@ def fit_tspline(uv: np.ndarray, values: np.ndarray, eps: float, n_data: int | No
     cache: dict = {}
     nodes, ku, kv = local_knots(mesh)
     A = basis_matrix(uv, ku, kv, index, cache, nodes)
+    if ridge is None:
+        ridge = _RIDGE if prior is None else 1e-4
     nearest = _nearest_data(uv, values)
-    poles = _least_squares(A, values, (prior or nearest)(greville(ku, kv)))
+    poles = _least_squares(A, values, (prior or nearest)(greville(ku, kv)), ridge)
     err = np.linalg.norm(A @ poles - values, axis=1)
     history = [{"control_points": len(nodes), "max": float(err.max()), "mean": float(err.mean()),
                 "changed": len(nodes)}]
@@ -823,7 +858,10 @@ def fit_tspline(uv: np.ndarray, values: np.ndarray, eps: float, n_data: int | No
         if len(bad) == 0:
             reason = f"cells holding points with error > tolerance are at the smallest size ({limits.min_cell:g})"
             break
-        split_faces = split_longer_side(mesh.faces, bad, uv, loc, lengths)
+        split_faces = split_longer_side(mesh.faces, bad, uv, loc, lengths, order=cut_order)
+        if len(split_faces) == len(mesh.faces):
+            # fall back to cuts that keep one data line per half (e.g. between two sections)
+            split_faces = split_longer_side(mesh.faces, bad, uv, loc, lengths, min_lines=1, order=cut_order)
         if len(split_faces) == len(mesh.faces):
             reason = "no cell holding points with error > tolerance can be cut with data on both halves"
             break
@@ -851,10 +889,10 @@ def fit_tspline(uv: np.ndarray, values: np.ndarray, eps: float, n_data: int | No
             Ar = Ar[rows]
             Ak = A[rows][:, np.flatnonzero(~changed)]
             rhs = values[rows] - Ak @ new_poles[~changed]
-            new_poles[changed] = _least_squares(Ar.tocsc(), rhs, guess)
+            new_poles[changed] = _least_squares(Ar.tocsc(), rhs, guess, ridge)
         else:
             g = greville(new_ku, new_kv)
-            new_poles = _least_squares(A, values, prior(g) if prior else basis_matrix(g, ku, kv) @ poles)
+            new_poles = _least_squares(A, values, prior(g) if prior else basis_matrix(g, ku, kv) @ poles, ridge)
         mesh, nodes, ku, kv, poles = new_mesh, new_nodes, new_ku, new_kv, new_poles
         alive = set(zip(map(tuple, nodes), map(tuple, ku), map(tuple, kv)))
         for key in [k for k in cache if k not in alive]:
