@@ -37,6 +37,9 @@ def add_parser(sub) -> None:
     p.add_argument("-o", "--output", help="plan CSV to write (section,x,y,z; mm), atomically")
     p.add_argument("--check", action="store_true",
                    help="reconstruct the surface from the plan and measure it against the (shape) nominal")
+    p.add_argument("--surface-within", action="store_true",
+                   help="plan again at tighter section tolerances until the surface reconstructed from the plan "
+                        "is within --tolerance of the (shape) nominal between the sections too (implies --check)")
     p.add_argument("--json", action="store_true", help="print the JSON summary on stdout")
     p.add_argument("--quiet", action="store_true", help="no progress messages on stderr")
     p.set_defaults(run=run_plan)
@@ -88,7 +91,23 @@ def run_plan(args: argparse.Namespace) -> dict:
     _say(args, f"cutting {args.nominal}")
     dense, h = _dense_sections(args, axis, heights)
     _say(args, f"{len(dense)} sections, {sum(len(p) for p in dense)} dense points; planning at ±{args.tolerance} mm")
-    plans = plan_sections(dense, args.tolerance, axis)
+    surface_plan = None
+    if args.surface_within:
+        from .core.plan import plan_for_surface
+        _check_possible(args, dense)
+
+        def surface_error(plans):
+            err = _check(args, plans, axis)["surface_to_nominal_max"]
+            _say(args, f"surface from the plan: max {err:.4f} mm from the nominal")
+            return err
+
+        surface_plan = plan_for_surface(dense, args.tolerance, surface_error, axis)
+        plans = surface_plan.plans
+        if not surface_plan.within:
+            _say(args, f"the surface stays {surface_plan.surface_error:.4f} mm from the nominal after "
+                       f"{surface_plan.rounds} rounds (section tolerance {surface_plan.section_tolerance:.4f} mm)")
+    else:
+        plans = plan_sections(dense, args.tolerance, axis)
     kept = sum(len(p.indices) for p in plans)
     total = sum(p.dense_points for p in plans)
     summary = {
@@ -99,6 +118,10 @@ def run_plan(args: argparse.Namespace) -> dict:
                       "points_kept": int(len(p.indices)), "compression_rate": p.compression,
                       "hausdorff": p.hausdorff, "iterations": p.iterations} for p, z in zip(plans, h)],
     }
+    if surface_plan is not None:
+        summary["surface_within"] = {"within": surface_plan.within, "section_tolerance": surface_plan.section_tolerance,
+                                     "surface_to_nominal_max": surface_plan.surface_error,
+                                     "rounds": surface_plan.rounds}
     if args.output:
         from .core.readers import write_points_csv
         pts = np.concatenate([p.points for p in plans])
@@ -106,19 +129,24 @@ def run_plan(args: argparse.Namespace) -> dict:
         write_points_csv(args.output, pts, sec)
         summary["output"] = args.output
         _say(args, f"wrote {args.output}")
-    if args.check:
+    if args.check or args.surface_within:
         summary["check"] = _check(args, plans, axis)
     _say(args, f"kept {kept} of {total} points ({100 * summary['compression_rate']:.1f} % fewer), "
                f"max Hausdorff {summary['hausdorff_max']:.4f} mm")
     return summary
 
 
+def _check_possible(args, sections) -> None:
+    what = "--surface-within" if args.surface_within else "--check"
+    if os.path.splitext(args.nominal)[1].lower() not in SHAPE_SUFFIXES:
+        raise BladeReconError(f"{what} needs a shape nominal (STEP/IGES/BREP/FCStd) to measure against")
+    if len(sections) < 2:
+        raise BladeReconError(f"{what} needs at least 2 heights to build a surface")
+
+
 def _check(args, plans, axis) -> dict:
     """Reconstruct from the plan (interpolation) and measure the surface against the nominal."""
-    if os.path.splitext(args.nominal)[1].lower() not in SHAPE_SUFFIXES:
-        raise BladeReconError("--check needs a shape nominal (STEP/IGES/BREP/FCStd) to measure against")
-    if len(plans) < 2:
-        raise BladeReconError("--check needs at least 2 heights to build a surface")
+    _check_possible(args, plans)
     from .core.reconstruct import reconstruct
     from .fc.compare import deviation_to_nominal, surface_samples
     rec = reconstruct([p.points for p in plans], axis, method="interpolate")

@@ -185,3 +185,38 @@ def test_cli_plan_check_reports_the_surface_against_the_nominal():
     assert r.returncode == 0, r.stderr
     c = json.loads(r.stdout)["check"]
     assert 0 < c["surface_to_nominal_mean"] < c["surface_to_nominal_max"] < 0.1 and c["samples"] > 1000
+
+
+def test_plan_for_surface_brings_the_surface_within_the_tolerance_everywhere():
+    """Seed 000's plan bounds each section's cubic (0.05 mm); the surface between the
+    sections strays to ~0.058 mm. plan_for_surface replans tighter until the surface - judged
+    here against the analytic blade, 41 heights - is within 0.05 mm, keeping >= 95 % compression."""
+    from bladerecon.core.plan import plan_for_surface
+
+    dense = [_dense(h) for h in HEIGHTS]
+    calls = []
+
+    def surface_error(plans):
+        err = _surface_error(plans, np.linspace(0, 1, 41))[0]
+        calls.append(err)
+        return err
+
+    sp = plan_for_surface(dense, 0.05, surface_error, np.array([0.0, 0.0, 1.0]))
+    assert sp.within and sp.surface_error <= 0.05 and sp.section_tolerance < 0.05
+    assert calls[0] > 0.05 and sp.rounds == len(calls) >= 2       # the plain plan was not enough
+    kept = sum(len(p.indices) for p in sp.plans)
+    assert 1 - kept / sum(p.dense_points for p in sp.plans) >= 0.95
+
+
+def test_cli_plan_surface_within(tmp_path):
+    out = tmp_path / "plan.csv"
+    r = _cli("plan", ROOT / "resources" / "sample" / "nominal.step", "--heights", "0.5,20,40,60,80,99.5",
+             "--tolerance", "0.05", "--surface-within", "-o", out, "--json", "--quiet")
+    assert r.returncode == 0, r.stderr
+    s = json.loads(r.stdout)
+    w = s["surface_within"]
+    assert w["within"] and w["surface_to_nominal_max"] <= 0.05 and w["section_tolerance"] < 0.05
+    assert s["check"]["surface_to_nominal_max"] <= 0.05 and s["compression_rate"] >= 0.95
+    assert out.read_text().count("\n") == s["points_kept"] + 1
+    r = _cli("plan", out, "--surface-within", "--quiet")
+    assert r.returncode == 2 and "shape nominal" in r.stderr

@@ -27,7 +27,7 @@ from .fitting import interpolate_closed_curve
 from .section_curves import refine_curve_parameters
 from .segmentation import segment_section
 
-__all__ = ["SectionPlan", "plan_section", "plan_sections", "hausdorff_to_polyline", "cut_surface", "DEFAULT_TOLERANCE"]
+__all__ = ["SectionPlan", "SurfacePlan", "plan_section", "plan_sections", "plan_for_surface", "hausdorff_to_polyline", "cut_surface", "DEFAULT_TOLERANCE"]
 
 DEFAULT_TOLERANCE = 0.05
 N_EQUAL = 8
@@ -140,6 +140,41 @@ def plan_sections(sections: list[np.ndarray], tolerance: float = DEFAULT_TOLERAN
                   span_axis: np.ndarray | None = None) -> list[SectionPlan]:
     """Plans of several dense sections (one per section, hub to tip)."""
     return [plan_section(p, k, tolerance, span_axis) for k, p in enumerate(sections)]
+
+
+@dataclass(frozen=True)
+class SurfacePlan:
+    """A plan whose reconstructed surface was checked: the section plans, the section
+    tolerance they were made at (mm), the surface error reached (mm) and the rounds."""
+
+    plans: list
+    section_tolerance: float
+    surface_error: float
+    rounds: int
+    within: bool
+
+
+def plan_for_surface(sections: list[np.ndarray], tolerance: float, surface_error,
+                     span_axis: np.ndarray | None = None, max_rounds: int = 8) -> SurfacePlan:
+    """Plans whose *surface* is within ``tolerance`` of the nominal (mm), not only each
+    section's cubic.
+
+    Seed 000 §2.1 bounds the cubic through each section's plan; the surface interpolated
+    spanwise through those cubics can stray further between the sections (the section
+    errors of neighbouring heights do not cancel). ``surface_error(plans) -> float`` measures
+    the surface built from the plans against the nominal (max, mm, between the sections
+    too); while it exceeds the tolerance every section is planned again at a tighter section
+    tolerance (scaled by tolerance / error, at least 10 % tighter a round). ``within`` is
+    False if ``max_rounds`` did not get there (the last plan and its error are returned).
+    """
+    section_tol = float(tolerance)
+    for rounds in range(1, max_rounds + 1):
+        plans = plan_sections(sections, section_tol, span_axis)
+        error = float(surface_error(plans))
+        if error <= tolerance:
+            return SurfacePlan(plans, section_tol, error, rounds, True)
+        section_tol *= min(0.9, tolerance / error)
+    return SurfacePlan(plans, section_tol / min(0.9, tolerance / error), error, max_rounds, False)
 
 
 def cut_surface(surface, origin: np.ndarray, normal: np.ndarray, step: float = 0.1,
