@@ -193,9 +193,9 @@ def run_tspline(args: argparse.Namespace) -> dict:
     if args.output:
         from .fc.tspline_export import write_tspline_step
         _say(args, "sewing patches and writing STEP")
-        info = write_tspline_step(patches, args.output)
+        info = write_tspline_step(patches, args.output, seam="seam_gap_max" in summary)
         summary["faces"] = info["faces"]
-        summary["output"] = {"step": args.output, "free_edges": info["free_edges"]}
+        summary["output"] = {"step": args.output, **info}
         _say(args, f"wrote {args.output}")
     summary["seconds"] = time.perf_counter() - t0
     summary["seconds_fit"] = t_fit - t0
