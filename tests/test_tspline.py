@@ -363,7 +363,7 @@ _SAMPLE = Path(__file__).resolve().parents[1] / "resources" / "sample" / "measur
 def test_blade_shell_closes_at_the_seam(part, src, tmp_path, capsys):
     """The exported blade shell, measured by OCC: no gap at the seam (<= 1e-6 mm), free
     edges only on hub and tip, C1 across the seam, and every measured point within the
-    tolerance of the STEP shell read back (OCC distances, 1 point in 4)."""
+    tolerance of the STEP shell read back (OCC distances at about 100 of the points)."""
     from bladerecon.cli import main
     from bladerecon.core.readers import read_points
     from bladerecon.fc.export import read_shape
@@ -380,7 +380,8 @@ def test_blade_shell_closes_at_the_seam(part, src, tmp_path, capsys):
     assert occ["seam_du_jump_rel_occ"] <= 1e-6 and occ["seam_tangent_angle_deg_occ"] <= 1e-4
     back = read_shape(out)
     assert len(back.Faces) == summary["faces"]
-    pts = read_points(str(src)).points[::4]
+    pts = read_points(str(src)).points
+    pts = pts[:: max(1, len(pts) // 100)]
     assert occ_distances(pts, back).max() <= 0.05
     # the open fit of the same data leaves edges along the seam free
     assert main(["tspline", str(src), "--tolerance", "0.05", "--seam", "open", "-o", str(tmp_path / "o.step"),
