@@ -24,6 +24,11 @@ Everything here is numpy/scipy. The pieces, with the seed's section numbers:
 * Bézier extraction (:func:`bezier_patches`): the 4x4 Bernstein control points of every
   Bézier element — a T-mesh face cut by any blending-function knot line that crosses it, so
   that every blending function is one polynomial on it.
+* Closed seam for blades (our addition; ``fit_tspline(seam="closed-c1")``): u is periodic
+  with period 1, but the T-mesh is not a periodic T-mesh. :func:`mirror_seam` gives both
+  u-ends the same v lines, and every solve is over the null space of the seam equations
+  S(0,v) = S(1,v), ∂S/∂u(0,v) = ∂S/∂u(1,v) (:func:`seam_reduction`). Seam elements are cut
+  at the same v values on both ends, so the exported patches meet there.
 
 Values may have any dimension: a z-map fits z over (x, y) (one column); a blade fits
 x, y, z over the (u, v) of the section reconstruction (three columns). Errors are the
