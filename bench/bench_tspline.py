@@ -1,7 +1,7 @@
 """Benchmark: adaptive analysis-suitable T-spline fitting (seed 002) against its paper and
 against tensor-product NURBS.
 
-    /usr/bin/python3 bench/bench_tspline.py [--quick]
+    /usr/bin/python3 bench/bench_tspline.py [--quick] [--blades-only]
 
 1. Seed 002 §3.1 rebuilt: f = sin(r)/r on [-8,8]², 161x161 = 25921 z-map points,
    eps = 0.02 (vertical error). ASTS (ours) with the default N_d, N_f and a small sweep of
@@ -114,7 +114,7 @@ def bench_sinc(quick: bool) -> dict:
 
 
 # ----------------------------------------------------------------------------- blades
-def blade_data(name: str, full: bool = False):
+def blade_data(name: str, full: bool = False, closed: bool = False):
     from bladerecon.core.reconstruct import reconstruct
     if name == "sample blade":
         from bladerecon.core.sample_blade import SampleBlade, sample_sections
@@ -138,6 +138,9 @@ def blade_data(name: str, full: bool = False):
     pts = [s.points for s in sections.sections]
     rec = reconstruct(pts, sections.span_axis, first_point_is_measured=not sections.sections[0].reordered)
     uv, lo, scale = ts.normalise_parameters(np.column_stack([rec.point_u, rec.point_v]))
+    if closed:
+        # u is periodic with period 1 in the reconstruction: keep it (as the CLI does)
+        uv[:, 0], lo[0], scale[0] = np.clip(rec.point_u, 0.0, 1.0), 0.0, 1.0
     if full:
         return uv, np.concatenate(pts), desc, len(pts), rec.surface, lo, scale
     return uv, np.concatenate(pts), desc, len(pts)
@@ -169,31 +172,37 @@ def fewest_tensor(uv, xyz, eps, n_sections: int, nu_max: int = 400) -> dict | No
 
 def bench_blades(quick: bool) -> list[dict]:
     out = []
+    v = np.linspace(0.0, 1.0, 201)
+    seam_uv = np.column_stack([np.r_[np.zeros_like(v), np.ones_like(v)], np.r_[v, v]])
     for name in ("sample blade", "NASA Rotor 37"):
-        log(f"{name}: reconstruct for parameters")
-        data = blade_data(name, full=True)
-        if data is None:
-            log(f"{name}: data missing, skipped")
-            continue
-        uv, xyz, desc, nsec, surface, lo, scale = data
-        from bladerecon.core.bspline import evaluate_surface
+        t = {}
+        for seam in ("open", "closed-c1"):
+            log(f"{name}: reconstruct for parameters")
+            data = blade_data(name, full=True, closed=seam != "open")
+            if data is None:
+                log(f"{name}: data missing, skipped")
+                break
+            uv, xyz, desc, nsec, surface, lo, scale = data
+            from bladerecon.core.bspline import evaluate_surface
 
-        def prior(g):   # the section reconstruction, as in `python3 -m bladerecon tspline`
-            return evaluate_surface(surface, lo[0] + scale[0] * g[:, 0], lo[1] + scale[1] * g[:, 1])
-        probe = np.random.default_rng(0).random((5000, 2))
-        for eps in ((0.05,) if quick else (0.05, 0.01)):
-            t = None
-            for order in ts.CUT_ORDERS:
-                log(f"{name}: ASTS eps={eps} cut order {order}")
-                a = asts_row(f"ASTS (ours), {order}", uv, xyz, eps, xyz, prior=prior, cut_order=order)
-                a["between_sections_max"] = float(np.linalg.norm(ts.evaluate(a.pop("_fit"), probe) - prior(probe),
-                                                                 axis=1).max())
-                log(f"{name}: {a['control_points']} cps, {a['seconds']:.1f} s")
-                if t is None:
-                    log(f"{name}: tensor search")
-                    t = fewest_tensor(uv, xyz, eps, nsec)
-                out.append({"blade": name, "data": desc, "points": int(len(uv)), "eps": eps, "asts": a,
-                            "cut_order": order, "tensor": t})
+            def prior(g, surface=surface, lo=lo, scale=scale):   # the section reconstruction, as in the CLI
+                return evaluate_surface(surface, lo[0] + scale[0] * g[:, 0], lo[1] + scale[1] * g[:, 1])
+            probe = np.random.default_rng(0).random((5000, 2))
+            for eps in ((0.05,) if quick else (0.05, 0.01)):
+                for order in ts.CUT_ORDERS:
+                    log(f"{name}: ASTS eps={eps} cut order {order} seam {seam}")
+                    a = asts_row(f"ASTS (ours), {order}", uv, xyz, eps, xyz, prior=prior, cut_order=order, seam=seam)
+                    fit = a.pop("_fit")
+                    a["between_sections_max"] = float(np.linalg.norm(ts.evaluate(fit, probe) - prior(probe),
+                                                                     axis=1).max())
+                    ends = ts.evaluate(fit, seam_uv)
+                    a["seam_gap_max"] = float(np.linalg.norm(ends[:201] - ends[201:], axis=1).max())
+                    log(f"{name}: {a['control_points']} cps, {a['seconds']:.1f} s, seam gap {a['seam_gap_max']:.3g}")
+                    if eps not in t:
+                        log(f"{name}: tensor search")
+                        t[eps] = fewest_tensor(uv, xyz, eps, nsec)
+                    out.append({"blade": name, "data": desc, "points": int(len(uv)), "eps": eps, "asts": a,
+                                "cut_order": order, "seam": seam, "tensor": t[eps]})
     return out
 
 
@@ -223,21 +232,26 @@ def markdown(sinc: dict, blades: list[dict], env: str) -> str:
                      f"{r['seconds']:.2f} |")
         L.append("")
     L += ["## Blades: control points for the same max error |S(u,v) - P| (mm)", "",
-          "| blade | points | eps / mm | cut order | ASTS control points | ASTS max | ASTS time / s | ASTS vs reconstruction, "
-          "max over [0,1]² / mm | tensor NURBS poles | tensor max | ratio tensor/ASTS |",
-          "|---|---|---|---|---|---|---|---|---|---|---|"]
+          "| blade | points | eps / mm | cut order | seam | ASTS control points | ASTS max | ASTS time / s | ASTS vs reconstruction, "
+          "max over [0,1]² / mm | seam gap / mm | tensor NURBS poles | tensor max | ratio tensor/ASTS |",
+          "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for b in blades:
         a, t = b["asts"], b["tensor"]
         tp = f"{t['poles']} = {t['control_points']} ({t['knots']})" if t else "not reached"
         ratio = f"{t['control_points'] / a['control_points']:.2f}" if t else "–"
         conv = "" if a["converged"] else " (not converged)"
-        L.append(f"| {b['data']} | {b['points']} | {b['eps']} | {b['cut_order']} | {a['control_points']}{conv} | {fmt(a['max'])} | "
-                 f"{a['seconds']:.1f} | {a['between_sections_max']:.3f} | {tp} | {fmt(t['max']) if t else '–'} | {ratio} |")
+        L.append(f"| {b['data']} | {b['points']} | {b['eps']} | {b['cut_order']} | {b.get('seam', 'open')} | "
+                 f"{a['control_points']}{conv} | {fmt(a['max'])} | "
+                 f"{a['seconds']:.1f} | {a['between_sections_max']:.3f} | {a.get('seam_gap_max', float('nan')):.2g} | {tp} | {fmt(t['max']) if t else '–'} | {ratio} |")
     L += ["", "Cut order (our addition to seed 002's midpoint rule, see `core/tspline.py` `_split_choice`): "
           "`longer-side` keeps the longer side and moves the cut between the cell's middle data lines when the "
           "midpoint would leave a half with fewer than 2 lines (default); `switch-side` cuts the other side "
           "at its midpoint instead. Tensor search: for each nv the smallest nu by bisection (error assumed to "
-          "fall with nu), uniform and eq. 9.69 knots, not exhaustive.", ""]
+          "fall with nu), uniform and eq. 9.69 knots, not exhaustive; the tensor peer is open (clamped) in u, "
+          "not periodic. Seam: `open` fits u as an open parameter (the two profile ends at u = 0 and 1 are "
+          "fitted separately); `closed-c1` (the CLI default) keeps the reconstruction's periodic u and solves "
+          "for poles with S and dS/du equal at u = 0 and 1 (null space of the seam equations, global solve "
+          "each step, see `fit_tspline`). Seam gap: max |S(0,v) - S(1,v)| at 201 v.", ""]
     return "\n".join(L)
 
 
@@ -247,7 +261,12 @@ def main() -> int:
     env = (f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, {os.cpu_count()} CPUs, "
            f"Python {platform.python_version()}, numpy {numpy.__version__}, scipy {scipy.__version__}")
     t0 = time.perf_counter()
-    sinc = bench_sinc(quick)
+    if "--blades-only" in sys.argv and (OUT / "tspline.json").exists():
+        old = json.loads((OUT / "tspline.json").read_text())
+        sinc = old["sinc"]
+        env += f"; sinc table from the run of {old['env'].split(',')[0]} (--blades-only)"
+    else:
+        sinc = bench_sinc(quick)
     blades = bench_blades(quick)
     md = markdown(sinc, blades, env)
     print(md)

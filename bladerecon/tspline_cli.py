@@ -40,6 +40,10 @@ def add_parser(sub) -> None:
     p.add_argument("--cut-order", choices=("longer-side", "switch-side"), default="longer-side",
                    help="where a cell that the midpoint would starve of data is cut: on its longer side between "
                         "the middle data lines (default) or on its other side")
+    p.add_argument("--seam", choices=("closed-c1", "closed", "open"), default="closed-c1",
+                   help="blades only (u goes around the profile, period 1): close the surface at the seam "
+                        "u = 0 = 1 with C1 (default), with C0 only, or leave it open (the fit before the "
+                        "seam constraint). Ignored for z-maps")
     p.add_argument("--json", action="store_true", help="print one JSON summary object to stdout")
     p.add_argument("--quiet", action="store_true", help="no progress messages on stderr")
     p.set_defaults(run=run_tspline)
@@ -107,7 +111,7 @@ def _blade_parameters(path: str, say) -> tuple[np.ndarray, np.ndarray, str] | No
 
 def fit_point_file(path: str, tolerance: float, zmap: bool = False, nd: int | None = None, nf: int | None = None,
                    max_iterations: int = 40, max_control_points: int = 6000, say=lambda msg: None,
-                   cut_order: str = "longer-side"):
+                   cut_order: str = "longer-side", seam: str = "closed-c1"):
     """Read ``path``, choose the parameterisation from the data, fit (seed 002) and extract
     the Bézier patches (3D control points, mm). Returns (fit, patches, summary dict)."""
     from .core import tspline as ts
@@ -130,6 +134,10 @@ def fit_point_file(path: str, tolerance: float, zmap: bool = False, nd: int | No
     else:
         uv_raw, xyz, kind, surface = blade
         uv, origin, scale = ts.normalise_parameters(uv_raw)
+        if seam != "open":
+            # u is periodic with period 1 in the reconstruction: keep it, so u = 0 and u = 1
+            # are the same profile point and the seam can be closed there
+            uv[:, 0], origin[0], scale[0] = np.clip(uv_raw[:, 0], 0.0, 1.0), 0.0, 1.0
         values = xyz
         from .core.bspline import evaluate_surface
 
@@ -138,7 +146,8 @@ def fit_point_file(path: str, tolerance: float, zmap: bool = False, nd: int | No
             return evaluate_surface(surface, origin[0] + scale[0] * g[:, 0], origin[1] + scale[1] * g[:, 1])
     limits = ts.FitLimits(max_iterations=max_iterations, max_control_points=max_control_points)
     fit = ts.fit_tspline(uv, values, tolerance, n_data=nd, n_feature=nf, xyz=xyz, limits=limits,
-                         prior=None if blade is None else prior, cut_order=cut_order)
+                         prior=None if blade is None else prior, cut_order=cut_order,
+                         seam="open" if blade is None else seam)
     dup = fit.duplicates
     if dup.get("points_sharing_parameters"):
         say(f"warning: degenerate parameterisation: {dup['points_sharing_parameters']} points share a "
@@ -155,14 +164,14 @@ def fit_point_file(path: str, tolerance: float, zmap: bool = False, nd: int | No
         "tolerance": tolerance, "converged": fit.converged, "stop_reason": fit.stop_reason,
         "parameterisation": kind, "points": int(len(uv)), "tmesh_faces": int(len(fit.mesh.reduced_faces())),
         "bezier_patches": len(patches), "ast_extension_steps": fit.ast_steps, "duplicates": dup,
-        "history": fit.history, "fit_seconds": fit.seconds,
+        "history": fit.history, "fit_seconds": fit.seconds, "seam": fit.seam,
         "error_measure": "vertical |z - S(x,y)| (mm)" if blade is None else "|S(u_j,v_j) - P_j| (mm), parametric",
     }
     if blade is None:
         patches = ts.zmap_patches(patches, origin, scale)
     else:
-        # the blade is closed around the profile; this T-spline is open in u: say how far
-        # its two u-ends (the seam at u = 0 and u = 1) lie apart
+        # the blade is closed around the profile: how far the T-spline's two u-ends (the
+        # seam at u = 0 and u = 1) lie apart (~1e-13 mm when the seam is closed)
         v = np.linspace(0.0, 1.0, 201)
         ends = ts.evaluate(fit, np.column_stack([np.r_[np.zeros_like(v), np.ones_like(v)], np.r_[v, v]]))
         summary["seam_gap_max"] = float(np.linalg.norm(ends[:201] - ends[201:], axis=1).max())
@@ -179,14 +188,14 @@ def run_tspline(args: argparse.Namespace) -> dict:
             raise BladeReconError(f"--output {args.output} is the input file: choose another name")
     _, patches, summary = fit_point_file(args.input, args.tolerance, args.zmap, args.nd, args.nf,
                                          args.max_iterations, args.max_control_points, lambda m: _say(args, m),
-                                         args.cut_order)
+                                         args.cut_order, args.seam)
     t_fit = time.perf_counter()
     if args.output:
         from .fc.tspline_export import write_tspline_step
         _say(args, "sewing patches and writing STEP")
-        info = write_tspline_step(patches, args.output)
+        info = write_tspline_step(patches, args.output, seam="seam_gap_max" in summary)
         summary["faces"] = info["faces"]
-        summary["output"] = {"step": args.output, "free_edges": info["free_edges"]}
+        summary["output"] = {"step": args.output, **info}
         _say(args, f"wrote {args.output}")
     summary["seconds"] = time.perf_counter() - t0
     summary["seconds_fit"] = t_fit - t0

@@ -24,6 +24,11 @@ Everything here is numpy/scipy. The pieces, with the seed's section numbers:
 * Bézier extraction (:func:`bezier_patches`): the 4x4 Bernstein control points of every
   Bézier element — a T-mesh face cut by any blending-function knot line that crosses it, so
   that every blending function is one polynomial on it.
+* Closed seam for blades (our addition; ``fit_tspline(seam="closed-c1")``): u is periodic
+  with period 1, but the T-mesh is not a periodic T-mesh. :func:`mirror_seam` gives both
+  u-ends the same v lines, and every solve is over the null space of the seam equations
+  S(0,v) = S(1,v), ∂S/∂u(0,v) = ∂S/∂u(1,v) (:func:`seam_reduction`). Seam elements are cut
+  at the same v values on both ends, so the exported patches meet there.
 
 Values may have any dimension: a z-map fits z over (x, y) (one column); a blade fits
 x, y, z over the (u, v) of the section reconstruction (three columns). Errors are the
@@ -48,10 +53,12 @@ __all__ = [
     "basis_matrix", "bezier_patches", "BezierPatch", "tensor_mesh", "duplicate_parameters",
     "normalise_parameters", "zmap_patches", "evaluate_patches", "partition_of_unity",
     "is_analysis_suitable", "t_junctions", "crossings", "local_knots", "tensor_least_squares", "parameter_lengths", "greville",
+    "SEAMS", "mirror_seam", "seam_rows", "seam_reduction",
 ]
 
 _INF = np.inf
 _RIDGE = 1e-10
+SEAMS = ("open", "closed", "closed-c1")
 CUT_ORDERS = ("longer-side", "switch-side")
 
 
@@ -453,6 +460,44 @@ def add_strip(inner_faces: np.ndarray, mu: float) -> np.ndarray:
     return np.concatenate(out)
 
 
+def mirror_seam(faces: np.ndarray) -> np.ndarray:
+    """Closed-seam blades: give the faces along u = 1 every horizontal line (v = const)
+    that the faces along u = 0 have, and vice versa, so the two ends of the T-mesh see the
+    same v knots. Without this the seam constraint (:func:`seam_reduction`) would leave
+    only the v splines common to both ends near the seam, and refining one end alone
+    could not lower the error there. Faces ``[u0,u1,v0,v1]`` over [-mu,1+mu]²."""
+    while True:
+        f = faces
+        inner = (f[:, 0] >= 0) & (f[:, 1] <= 1) & (f[:, 2] >= 0) & (f[:, 3] <= 1)
+        left = np.flatnonzero(inner & (f[:, 0] == 0))
+        right = np.flatnonzero(inner & (f[:, 1] == 1))
+        seen: dict[int, float] = {}
+        for this, other in ((left, right), (right, left)):
+            marks = np.unique(f[other][:, 2:4])
+            for k in this:
+                inside = marks[(marks > f[k, 2]) & (marks < f[k, 3])]
+                if inside.size:
+                    seen.setdefault(int(k), float(inside[0]))
+        if not seen:
+            return faces
+        idx = np.array(list(seen))
+        faces = _split(faces, idx, np.ones(len(idx), int), np.array([seen[k] for k in idx]))
+
+
+def _seam_suitable(mesh: TMesh, max_candidates: int) -> tuple[TMesh, int]:
+    """AST conversion alternated with :func:`mirror_seam` until both hold."""
+    steps = 0
+    for _ in range(50):
+        mirrored = mirror_seam(mesh.faces)
+        if len(mirrored) == len(mesh.faces) and steps:
+            return mesh, steps
+        mesh, s = make_analysis_suitable(TMesh(mirrored, mesh.mu), max_candidates)
+        steps += s
+        if len(mirror_seam(mesh.faces)) == len(mesh.faces):
+            return mesh, steps
+    raise BladeReconError("closing the T-mesh seam did not settle; use --seam open")
+
+
 def make_analysis_suitable(mesh: TMesh, max_candidates: int = 40, max_steps: int = 100000) -> tuple[TMesh, int]:
     """Greedy AST conversion (seed 002 §2.3): while extensions cross, try extending each
     T-junction in a crossing one step in its missing direction, keep the mesh with the
@@ -744,6 +789,7 @@ class TSplineFit:
     seconds: float = 0.0
     ast_steps: int = 0
     duplicates: dict = field(default_factory=dict)
+    seam: str = "open"                  # open / closed / closed-c1 in u (see fit_tspline)
 
     @property
     def n_control_points(self) -> int:
@@ -765,6 +811,72 @@ def _least_squares(A: sp.csc_matrix, rhs: np.ndarray, guess: np.ndarray, ridge: 
     return lu.solve(np.ascontiguousarray(b))
 
 
+def seam_rows(ku: np.ndarray, kv: np.ndarray, c1: bool = True) -> np.ndarray:
+    """Dense rows C (k, n) with C P = S(0,v_k) − S(1,v_k) (and, with ``c1``, the same for
+    ∂S/∂u) for the blending functions ``ku``, ``kv``. The v_k are 4 points in each span
+    between all v knots in [0,1] plus the knots, so C P = 0 makes the two u-ends equal
+    identically: both sides are cubic in v on each span. ∂/∂u at an end is exact: every
+    N_u is one cubic on [0, h] (h = the nearest positive u knot), whose Bernstein
+    coefficients come from 4 samples; the end derivative is 3(c1 − c0)/h (NURBS Book eq. 1.9)."""
+    br = np.unique(kv[(kv >= 0) & (kv <= 1)])
+    vk = np.concatenate([br, (br[:-1, None] + np.diff(br)[:, None] * _BERN_T).ravel()])
+    n, k = len(ku), len(vk)
+    d0 = ku[ku > 1e-12]
+    d1 = 1.0 - ku[ku < 1 - 1e-12]
+    h0 = min(float(d0.min()) if d0.size else 1.0, 0.5)
+    h1 = min(float(d1.min()) if d1.size else 1.0, 0.5)
+    # u samples and their weights: value rows use u = 0 and u = 1; derivative rows use the
+    # 4 Bernstein samples on [0, h0] and [1 - h1, 1]
+    ends = [(np.array([0.0]), np.array([1.0]), np.array([1.0]), np.array([1.0]))]
+    if c1:
+        ends.append((_BERN_T * h0, 3.0 * (_BERN_INV[1] - _BERN_INV[0]) / h0,
+                     1.0 - h1 + _BERN_T * h1, 3.0 * (_BERN_INV[3] - _BERN_INV[2]) / h1))
+    near = np.flatnonzero(((ku[:, 0] < h0) & (ku[:, 4] > 0)) | ((ku[:, 0] < 1) & (ku[:, 4] > 1 - h1)))
+    r = len(near)
+    nv = bspline_basis_1d(np.repeat(kv[near], k, axis=0), np.tile(vk, r)).reshape(r, k)
+
+    def nu_weighted(us, w):
+        vals = bspline_basis_1d(np.repeat(ku[near], len(us), axis=0), np.tile(us, r)).reshape(r, len(us))
+        return vals @ w                                              # (r,)
+
+    rows = []
+    for u0, w0, u1, w1 in ends:
+        block = np.zeros((k, n))
+        block[:, near] = ((nu_weighted(u0, w0) - nu_weighted(u1, w1))[:, None] * nv).T
+        rows.append(block)
+    return np.concatenate(rows)
+
+
+def seam_reduction(ku: np.ndarray, kv: np.ndarray, c1: bool = True) -> sp.csc_matrix:
+    """Sparse T (n, n') whose columns span the poles with :func:`seam_rows` C P = 0:
+    identity on the poles C does not touch, an orthonormal null-space basis of C (SVD,
+    relative threshold 1e-10) on those it does. P = T z closes the seam for every z."""
+    C = seam_rows(ku, kv, c1)
+    n = len(ku)
+    J = np.flatnonzero(np.any(np.abs(C) > 0, axis=0))
+    free = np.setdiff1d(np.arange(n), J)
+    CJ = C[:, J]
+    norm = np.linalg.norm(CJ, axis=1)
+    CJ = CJ[norm > 0] / norm[norm > 0, None]
+    _, sv, vt = np.linalg.svd(CJ, full_matrices=True)
+    rank = int(np.sum(sv > 1e-10 * sv[0])) if sv.size else 0
+    NJ = vt[rank:].T                                               # (|J|, |J| - rank)
+    rows = np.concatenate([free, np.repeat(J, NJ.shape[1])])
+    cols = np.concatenate([np.arange(len(free)), np.tile(len(free) + np.arange(NJ.shape[1]), len(J))])
+    vals = np.concatenate([np.ones(len(free)), NJ.ravel()])
+    keep = np.abs(vals) > 1e-15
+    return sp.csc_matrix((vals[keep], (rows[keep], cols[keep])), shape=(n, len(free) + NJ.shape[1]))
+
+
+def _least_squares_closed(A: sp.csc_matrix, rhs: np.ndarray, guess: np.ndarray, T: sp.csc_matrix,
+                          ridge: float | None = None) -> np.ndarray:
+    """:func:`_least_squares` over P = T z (seed 002 eq. 7 with the seam closed): solve for z
+    with the ridge pulling T z towards the orthogonal projection of ``guess``; T is
+    orthonormal column by column, so Tᵀ guess is that projection's coordinates."""
+    z = _least_squares((A @ T).tocsc(), rhs, T.T @ guess, ridge)
+    return T @ z
+
+
 def greville(ku: np.ndarray, kv: np.ndarray) -> np.ndarray:
     """Greville point (mean of the three middle knots) of each blending function, clipped to
     [0,1]²: where a pole sits on its surface, to second order (NURBS Book §9.2)."""
@@ -781,7 +893,7 @@ def fit_tspline(uv: np.ndarray, values: np.ndarray, eps: float, n_data: int | No
                 limits: FitLimits = FitLimits(), local: bool = True,
                 max_candidates: int = 40, initial: TMesh | None = None,
                 lengths: tuple[float, float] | None = None, prior=None, ridge: float | None = None,
-                cut_order: str = "longer-side") -> TSplineFit:
+                cut_order: str = "longer-side", seam: str = "open") -> TSplineFit:
     """Adaptive ASTS fitting (seed 002 Fig. 2): initial mesh → AST → least squares →
     [split cells with error > eps → AST → local least squares (eq. 10)]* .
 
@@ -800,6 +912,11 @@ def fit_tspline(uv: np.ndarray, values: np.ndarray, eps: float, n_data: int | No
     ``cut_order``: see :func:`_split_choice` (``longer-side`` or ``switch-side``).
     ``lengths``: model lengths of the u and v directions for the longer-side rule (default:
     estimated from ``xyz`` by :func:`parameter_lengths`).
+    ``seam``: ``open`` (default), ``closed`` (S(0,v) = S(1,v) identically) or ``closed-c1``
+    (also ∂S/∂u(0,v) = ∂S/∂u(1,v)), for u periodic with period 1 (a blade profile). Not a
+    periodic T-mesh: the mesh keeps its mu strips in u, :func:`mirror_seam` gives both
+    u-ends the same v lines, and every solve is global over the poles P = T z that
+    satisfy the seam equations (:func:`seam_reduction`); eq. 10's local re-solve is not used.
     Stops at max error <= eps, or at a :class:`FitLimits` limit with ``converged=False``
     and the reason and the error reached.
     """
@@ -817,6 +934,20 @@ def fit_tspline(uv: np.ndarray, values: np.ndarray, eps: float, n_data: int | No
         raise BladeReconError(f"unknown cut order '{cut_order}': use one of {', '.join(CUT_ORDERS)}")
     if np.any(uv < -1e-12) or np.any(uv > 1 + 1e-12):
         raise BladeReconError("parameters must lie in [0,1]²; normalise them first")
+    if seam not in SEAMS:
+        raise BladeReconError(f"unknown seam '{seam}': use one of {', '.join(SEAMS)}")
+    closed = seam != "open"
+    c1 = seam == "closed-c1"
+    if closed:
+        local = False
+
+    def suitable(mesh_):
+        return _seam_suitable(mesh_, max_candidates) if closed else make_analysis_suitable(mesh_, max_candidates)
+
+    def solve(A_, rhs_, guess_, ku_, kv_):
+        if closed:
+            return _least_squares_closed(A_, rhs_, guess_, seam_reduction(ku_, kv_, c1), ridge)
+        return _least_squares(A_, rhs_, guess_, ridge)
     dups = duplicate_parameters(uv, values)
     if n_data is None:
         n_data = max(16, m // 16)
@@ -832,7 +963,7 @@ def fit_tspline(uv: np.ndarray, values: np.ndarray, eps: float, n_data: int | No
         mesh = initial_mesh(uv, feat, n_data, n_feature, mu, lengths=lengths, order=cut_order)
     else:
         mesh = initial
-    mesh, ast_steps = make_analysis_suitable(mesh, max_candidates)
+    mesh, ast_steps = suitable(mesh)
     index = _PointIndex(uv)
     cache: dict = {}
     nodes, ku, kv = local_knots(mesh)
@@ -840,7 +971,7 @@ def fit_tspline(uv: np.ndarray, values: np.ndarray, eps: float, n_data: int | No
     if ridge is None:
         ridge = _RIDGE if prior is None else 1e-4
     nearest = _nearest_data(uv, values)
-    poles = _least_squares(A, values, (prior or nearest)(greville(ku, kv)), ridge)
+    poles = solve(A, values, (prior or nearest)(greville(ku, kv)), ku, kv)
     err = np.linalg.norm(A @ poles - values, axis=1)
     history = [{"control_points": len(nodes), "max": float(err.max()), "mean": float(err.mean()),
                 "changed": len(nodes)}]
@@ -865,7 +996,7 @@ def fit_tspline(uv: np.ndarray, values: np.ndarray, eps: float, n_data: int | No
         if len(split_faces) == len(mesh.faces):
             reason = "no cell holding points with error > tolerance can be cut with data on both halves"
             break
-        new_mesh, steps = make_analysis_suitable(TMesh(split_faces, mu), max_candidates)
+        new_mesh, steps = suitable(TMesh(split_faces, mu))
         new_nodes, new_ku, new_kv = local_knots(new_mesh)
         if len(new_nodes) > limits.max_control_points:
             reason = f"control point limit ({limits.max_control_points}) would be exceeded ({len(new_nodes)})"
@@ -892,7 +1023,7 @@ def fit_tspline(uv: np.ndarray, values: np.ndarray, eps: float, n_data: int | No
             new_poles[changed] = _least_squares(Ar.tocsc(), rhs, guess, ridge)
         else:
             g = greville(new_ku, new_kv)
-            new_poles = _least_squares(A, values, prior(g) if prior else basis_matrix(g, ku, kv) @ poles, ridge)
+            new_poles = solve(A, values, prior(g) if prior else basis_matrix(g, ku, kv) @ poles, new_ku, new_kv)
         mesh, nodes, ku, kv, poles = new_mesh, new_nodes, new_ku, new_kv, new_poles
         alive = set(zip(map(tuple, nodes), map(tuple, ku), map(tuple, kv)))
         for key in [k for k in cache if k not in alive]:
@@ -905,7 +1036,7 @@ def fit_tspline(uv: np.ndarray, values: np.ndarray, eps: float, n_data: int | No
         reason = "not converged"
     return TSplineFit(mesh, nodes, ku, kv, poles, float(err.max()), float(err.mean()), refinements,
                       converged, reason if converged else f"stopped: {reason}; max error {err.max():.4g}",
-                      history, time.perf_counter() - t0, ast_steps, dups)
+                      history, time.perf_counter() - t0, ast_steps, dups, seam)
 
 
 def evaluate(fit: TSplineFit, uv: np.ndarray) -> np.ndarray:
@@ -981,11 +1112,17 @@ def bezier_elements(fit: TSplineFit) -> list[tuple[int, float, float, float, flo
     a single bicubic polynomial on every element)."""
     out = []
     ku, kv = fit.knots_u, fit.knots_v
+    seam_v = np.empty(0)
+    if fit.seam != "open":
+        # closed seam: the elements along u = 0 and u = 1 are cut at the same v values so
+        # their edges coincide and the sewn shell closes around the profile
+        first = bezier_elements(TSplineFit(**{**fit.__dict__, "seam": "open"}))
+        seam_v = np.unique([[e[3], e[4]] for e in first if e[1] == 0 or e[2] == 1])
     for k in fit.mesh.reduced_faces():
         a, b, c, d = fit.mesh.faces[k]
         act = (ku[:, 0] < b) & (ku[:, 4] > a) & (kv[:, 0] < d) & (kv[:, 4] > c)
         us = np.unique(np.concatenate([[a, b], ku[act].ravel()]))
-        vs = np.unique(np.concatenate([[c, d], kv[act].ravel()]))
+        vs = np.unique(np.concatenate([[c, d], kv[act].ravel()] + ([seam_v] if a == 0 or b == 1 else [])))
         us = us[(us >= a) & (us <= b)]
         vs = vs[(vs >= c) & (vs <= d)]
         for i in range(len(us) - 1):

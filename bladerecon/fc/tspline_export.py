@@ -19,7 +19,7 @@ from bladerecon.core.tspline import BezierPatch
 from .freecad_env import import_freecad
 
 __all__ = ["patch_surface", "patch_faces", "sew_patches", "occ_evaluate", "shell_gaps", "write_tspline_step",
-           "make_tspline_feature"]
+           "make_tspline_feature", "seam_check", "free_edges"]
 
 FreeCAD, Part = import_freecad()
 
@@ -93,14 +93,77 @@ def shell_gaps(patches: list[BezierPatch], surfaces: list[Any], samples: int = 9
     return worst
 
 
-def write_tspline_step(patches: list[BezierPatch], path: str | os.PathLike, tol: float = SEW_TOL) -> dict:
-    """Sew the patches into one shell and write it to STEP (mm, atomic). Returns counts."""
+def write_tspline_step(patches: list[BezierPatch], path: str | os.PathLike, tol: float = SEW_TOL,
+                       seam: bool = False) -> dict:
+    """Sew the patches into one shell and write it to STEP (mm, atomic). Returns counts;
+    with ``seam`` (a blade, u around the profile) also :func:`seam_check` of the shell."""
     from .export import write_step
 
     faces = patch_faces(patches)
     shell = sew_patches(faces, tol)
     write_step(shell, path)
-    return {"faces": len(shell.Faces), "free_edges": _free_edge_count(shell)}
+    info = {"faces": len(shell.Faces), "free_edges": _free_edge_count(shell)}
+    if seam:
+        info.update(seam_check(patches, [f.Surface for f in faces], shell))
+    return info
+
+
+def free_edges(shell: Any) -> list[Any]:
+    """Edges of ``shell`` used by only one face."""
+    count: dict = {}
+    for f in shell.Faces:
+        for e in f.Edges:
+            count.setdefault(e.hashCode(), [e, 0])[1] += 1
+    return [e for e, n in count.values() if n == 1]
+
+
+def seam_check(patches: list[BezierPatch], surfaces: list[Any], shell: Any, samples: int = 401) -> dict:
+    """The blade seam as OpenCASCADE sees it (mm):
+
+    * ``seam_gap_occ``: largest distance between the exported surfaces at u = 0 and at
+      u = 1 (same v, ``samples`` values), each evaluated by OCC on its own patch;
+    * ``free_edges_off_hub_tip``: free edges of the sewn shell whose midpoint and ends are
+      farther than 1e-6 mm from the hub (v = 0) and tip (v = 1) boundary curves, which are
+      built as OCC edges from the patches' v-isolines. 0 means the shell is closed around
+      the profile and open only at hub and tip;
+    * ``seam_du_jump_rel_occ`` / ``seam_tangent_angle_deg_occ``: largest jump of ∂S/∂u across
+      the seam relative to its size, and largest angle between the u tangents, from OCC's
+      patch derivatives (0 for a C1 seam; the angle is the G1 measure).
+    """
+    v = np.linspace(0.0, 1.0, samples)
+    a = occ_evaluate(patches, surfaces, np.column_stack([np.zeros_like(v), v]))
+    b = occ_evaluate(patches, surfaces, np.column_stack([np.ones_like(v), v]))
+    ends = []
+    for p, srf in zip(patches, surfaces):
+        if p.box[2] == 0:
+            ends.append(srf.vIso(0.0).toShape())
+        if p.box[3] == 1:
+            ends.append(srf.vIso(1.0).toShape())
+    hub_tip = Part.Compound(ends)
+    boxes = np.array([p.box for p in patches])
+
+    def d_du(u):
+        # ∂S/∂u in T-spline parameters from OCC's own derivative of the patch (getDN)
+        out = np.empty((len(v), 3))
+        for n, vv in enumerate(v):
+            k = np.flatnonzero((boxes[:, 0] <= u) & (u <= boxes[:, 1]) & (boxes[:, 2] <= vv) & (vv <= boxes[:, 3]))[0]
+            a0, b0, c0, d0 = boxes[k]
+            d = surfaces[k].getDN((u - a0) / (b0 - a0), (vv - c0) / (d0 - c0), 1, 0)
+            out[n] = (d.x / (b0 - a0), d.y / (b0 - a0), d.z / (b0 - a0))
+        return out
+    du0, du1 = d_du(0.0), d_du(1.0)
+    cosang = np.sum(du0 * du1, axis=1) / (np.linalg.norm(du0, axis=1) * np.linalg.norm(du1, axis=1))
+    off = 0
+    free = free_edges(shell)
+    for e in free:
+        for t in (e.FirstParameter, 0.5 * (e.FirstParameter + e.LastParameter), e.LastParameter):
+            if hub_tip.distToShape(Part.Vertex(e.valueAt(t)))[0] > 1e-6:
+                off += 1
+                break
+    return {"seam_gap_occ": float(np.linalg.norm(a - b, axis=1).max()), "free_edges": len(free),
+            "free_edges_off_hub_tip": off,
+            "seam_du_jump_rel_occ": float((np.linalg.norm(du0 - du1, axis=1) / np.linalg.norm(du0, axis=1)).max()),
+            "seam_tangent_angle_deg_occ": float(np.degrees(np.arccos(np.clip(cosang, -1, 1))).max())}
 
 
 def _free_edge_count(shell: Any) -> int:
