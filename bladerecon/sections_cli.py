@@ -19,8 +19,6 @@ from .core.errors import BladeReconError
 
 __all__ = ["add_parser", "run_sections"]
 
-KEYS = ("chord", "stagger_deg", "max_thickness", "max_thickness_pos", "le_radius", "te_radius",
-        "inlet_angle_deg", "outlet_angle_deg")
 SHAPE_SUFFIXES = (".step", ".stp", ".iges", ".igs", ".brep", ".brp", ".fcstd")
 
 
@@ -87,7 +85,7 @@ def _nominal_sections(args, segs, span_axis) -> list[np.ndarray]:
 
 
 def run_sections(args: argparse.Namespace) -> list:
-    from .core.section_parameters import measure_section, segment_sections
+    from .core.section_parameters import compare_with_nominal, measure_section, segment_sections
 
     offsets = _floats(args.offsets, "--offsets")
     if args.plots and not os.path.isdir(os.path.dirname(os.path.abspath(args.plots)) or "."):
@@ -109,12 +107,7 @@ def run_sections(args: argparse.Namespace) -> list:
             ns = segment_section(q, k, axis, le_hint=s.lift(s.le)[0], throat=throat)
             nsegs.append(ns)
         nparams = [measure_section(s, offsets, strict_radius=not args.lenient) for s in nsegs]
-        for o, n in zip(out, nparams):
-            nd = n.as_dict()
-            o["nominal"] = {k: nd[k] for k in ("points", "le", "te", *KEYS, "thickness_at")}
-            o["difference"] = {k: (None if o[k] is None or nd[k] is None else o[k] - nd[k]) for k in KEYS}
-            o["difference"]["le_shift"] = float(np.linalg.norm(np.array(o["le"]) - np.array(nd["le"])))
-            o["difference"]["te_shift"] = float(np.linalg.norm(np.array(o["te"]) - np.array(nd["te"])))
+        out = [compare_with_nominal(o, n.as_dict()) for o, n in zip(out, nparams)]
     else:
         nsegs = [None] * len(segs)
     if args.plots:

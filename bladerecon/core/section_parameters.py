@@ -34,7 +34,8 @@ from .bspline import curve_derivatives, evaluate_curve
 from .errors import BladeReconError
 from .segmentation import LE, PRESSURE, SUCTION, TE, Segmentation
 
-__all__ = ["SectionParameters", "measure_section", "segment_sections", "fit_circle", "inscribed_circles", "MIN_EDGE_POINTS"]
+__all__ = ["SectionParameters", "measure_section", "segment_sections", "fit_circle", "inscribed_circles", "MIN_EDGE_POINTS",
+           "PARAMETER_KEYS", "compare_with_nominal"]
 
 #: measured points an edge region needs for a radius fit (3 define a circle; 5 give redundancy)
 MIN_EDGE_POINTS = 5
@@ -278,6 +279,24 @@ def measure_section(seg: Segmentation, offsets: tuple[float, ...] = (), n_points
         le_center=seg.lift(le_c)[0], te_center=seg.lift(te_c)[0],
         throat=None if seg.throat is None else {**seg.throat, "point": seg.lift(seg.throat["point"])[0]},
         warnings=tuple(warnings))
+
+
+#: the parameters compared measured vs nominal (mm, degrees)
+PARAMETER_KEYS = ("chord", "stagger_deg", "max_thickness", "max_thickness_pos", "le_radius", "te_radius",
+                  "inlet_angle_deg", "outlet_angle_deg")
+
+
+def compare_with_nominal(measured: dict, nominal: dict) -> dict:
+    """``measured`` (a :meth:`SectionParameters.as_dict` row) with ``"nominal"`` (the nominal
+    section's values) and ``"difference"`` (measured − nominal, None where either is missing;
+    ``le_shift``/``te_shift``: distances between the LE/TE points, mm) added."""
+    row = dict(measured)
+    row["nominal"] = {k: nominal[k] for k in ("points", "le", "te", *PARAMETER_KEYS, "thickness_at")}
+    row["difference"] = {k: (None if row[k] is None or nominal[k] is None else row[k] - nominal[k])
+                         for k in PARAMETER_KEYS}
+    row["difference"]["le_shift"] = float(np.linalg.norm(np.subtract(row["le"], nominal["le"])))
+    row["difference"]["te_shift"] = float(np.linalg.norm(np.subtract(row["te"], nominal["te"])))
+    return row
 
 
 def segment_sections(section_points: list[np.ndarray], span_axis: np.ndarray | None = None,

@@ -11,10 +11,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["PARAMETER_KEYS", "compare_section_parameters"]
-
-PARAMETER_KEYS = ("chord", "stagger_deg", "max_thickness", "max_thickness_pos", "le_radius", "te_radius",
-                  "inlet_angle_deg", "outlet_angle_deg")
+__all__ = ["compare_section_parameters"]
 
 
 def compare_section_parameters(section_points: list[np.ndarray], span_axis: np.ndarray, measured_start: bool,
@@ -25,7 +22,7 @@ def compare_section_parameters(section_points: list[np.ndarray], span_axis: np.n
     ``lenient``: an edge with too few points for a radius gives ``None`` and a warning
     instead of an error (a report should not fail over one radius).
     """
-    from ..core.section_parameters import measure_section, segment_sections
+    from ..core.section_parameters import compare_with_nominal, measure_section, segment_sections
     from ..core.segmentation import segment_section
     from .slicing import cut_sections
 
@@ -37,12 +34,5 @@ def compare_section_parameters(section_points: list[np.ndarray], span_axis: np.n
     rows = []
     for seg, mp, cut in zip(segs, measured, cuts):
         ns = segment_section(cut, seg.index, span_axis, le_hint=seg.frame.to_space(seg.le)[0])
-        nd = measure_section(ns, offsets, strict_radius=not lenient).as_dict()
-        row = mp.as_dict()
-        row["nominal"] = {k: nd[k] for k in ("points", "le", "te", *PARAMETER_KEYS, "thickness_at")}
-        row["difference"] = {k: (None if row[k] is None or nd[k] is None else row[k] - nd[k])
-                             for k in PARAMETER_KEYS}
-        row["difference"]["le_shift"] = float(np.linalg.norm(np.subtract(row["le"], nd["le"])))
-        row["difference"]["te_shift"] = float(np.linalg.norm(np.subtract(row["te"], nd["te"])))
-        rows.append(row)
+        rows.append(compare_with_nominal(mp.as_dict(), measure_section(ns, offsets, strict_radius=not lenient).as_dict()))
     return rows

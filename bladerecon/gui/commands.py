@@ -391,34 +391,33 @@ class _SurfaceCommand(_OnObject):
         return _has_surface(find_object(self.target))
 
 
-class Zebra(_SurfaceCommand):
+class _SurfaceAnalysis(_SurfaceCommand):
+    """Switch a surface display mode (``mode``) on through its task panel, or off again."""
+
+    mode = ""
+
+    def Activated(self) -> None:  # noqa: N802
+        surface = find_object(self.target)
+        if surface.ViewObject.DisplayMode == self.mode:
+            set_surface_analysis(surface, None)
+            return
+        from .task_panels import SurfaceAnalysisPanel
+
+        FreeCADGui.Control.showDialog(SurfaceAnalysisPanel(surface, self.mode))
+
+
+class Zebra(_SurfaceAnalysis):
     icon = "BladeRecon_Zebra"
     menu_text = "Zebra stripes"
     tool_tip = "Reflection stripes on the selected surface to judge smoothness (stripe count, direction); again to switch off"
-
-    def Activated(self) -> None:  # noqa: N802
-        surface = find_object(self.target)
-        if surface.ViewObject.DisplayMode == "Zebra":
-            set_surface_analysis(surface, None)
-            return
-        from .task_panels import SurfaceAnalysisPanel
-
-        FreeCADGui.Control.showDialog(SurfaceAnalysisPanel(surface, "Zebra"))
+    mode = "Zebra"
 
 
-class Curvature(_SurfaceCommand):
+class Curvature(_SurfaceAnalysis):
     icon = "BladeRecon_Curvature"
     menu_text = "Curvature map"
     tool_tip = "Colour the selected surface by Gaussian or mean curvature, with a legend; again to switch off"
-
-    def Activated(self) -> None:  # noqa: N802
-        surface = find_object(self.target)
-        if surface.ViewObject.DisplayMode == "Curvature":
-            set_surface_analysis(surface, None)
-            return
-        from .task_panels import SurfaceAnalysisPanel
-
-        FreeCADGui.Control.showDialog(SurfaceAnalysisPanel(surface, "Curvature"))
+    mode = "Curvature"
 
 
 class ExportStep(_SurfaceCommand):
