@@ -439,6 +439,13 @@ class _StartGrid:
         separation = self._separation(flat).reshape(self.sizes)
         self.cell_separation = _neighbour_reduce(separation, self.periodic, np.minimum, (1,)).ravel()
 
+    def _set_axes(self, X: np.ndarray, axis: np.ndarray) -> None:
+        """Unit normals (surface) or tangents (curve) of the samples X (dim, n), and their
+        offsets n·X, for :meth:`promise` (zero where the direction vanishes)."""
+        length = np.sqrt(_dot(axis, axis))
+        self.axis = np.ascontiguousarray(axis / np.where(length > 0, length, 1.0))
+        self.offset = _dot(self.axis, X)
+
     def _separation(self, flat: np.ndarray) -> np.ndarray:
         n = flat.shape[0]
         k = min((2 * _WINDOW + 1) ** len(self.sizes) + 1, n)
@@ -520,6 +527,7 @@ class _SurfaceGrid(_StartGrid):
             UU, VV = self._off_collapsed_edges(UU, VV, collapsed)
             uu, vv, su, sv, ders = model.evaluate(UU.ravel(), VV.ravel(), 2, pieces)
         self.state = (uu, vv, su, sv, np.stack(ders).reshape(18, -1))
+        self._set_axes(ders[0], np.cross(ders[1], ders[2], axis=0))
         self._finish(ders[0].T.reshape(self.sizes + (3,)), [model.u, model.v])
 
     @staticmethod
@@ -558,23 +566,21 @@ class _SurfaceGrid(_StartGrid):
         uu, vv, su, sv, ders = self.state
         return uu[k], vv[k], su[k], sv[k], np.take(ders, k, axis=1).reshape(6, 3, -1)
 
-    def promise(self, P: np.ndarray, k: np.ndarray) -> np.ndarray:
-        """For points P (3, m) and samples k (m, K): the distance from P to the tangent plane
-        of each sample, its foot kept within the sample's cover. Ranks the extra Newton
-        starts: near a blunt nose a sample on the far side of the closer foot is nearer to
-        P than the samples that lead to it, so nearest-first would try the wrong ones."""
-        D = np.take(self.state[4], k.ravel(), axis=1).reshape(6, 3, *k.shape)
-        X, Su, Sv = D[0], D[1], D[2]
-        r = P[:, :, None] - X
-        guu, guv, gvv = (Su * Su).sum(0), (Su * Sv).sum(0), (Sv * Sv).sum(0)
-        gu, gv = (Su * r).sum(0), (Sv * r).sum(0)
-        det = np.maximum(guu * gvv - guv * guv, 1e-300)
-        a, b = (gvv * gu - guv * gv) / det, (guu * gv - guv * gu) / det
-        step = Su * a + Sv * b
-        length = np.sqrt((step * step).sum(0))
-        step *= np.minimum(1.0, self.cover[k] / np.maximum(length, 1e-300))
-        rest = r - step
-        return np.sqrt((rest * rest).sum(0))
+    def promise(self, P: np.ndarray, k: np.ndarray, dist: np.ndarray) -> np.ndarray:
+        """For points P (3, m), samples k (m, K) and their distances ``dist`` (m, K) from the
+        points: the distance from P to the tangent plane of each sample, its foot kept
+        within the sample's cover. Ranks the extra Newton starts: near a blunt nose a sample
+        on the far side of the closer foot is nearer to P than the samples that lead to it,
+        so nearest-first would try the wrong ones.
+
+        With q = n·(P - X) the height over the plane (n the sample's unit normal), the
+        in-plane offset is sqrt(dist^2 - q^2); the foot may move ``cover`` of it, so what
+        is left is sqrt(max(in-plane - cover, 0)^2 + q^2): four numbers per sample.
+        """
+        q = np.einsum("dmk,dm->mk", self.axis[:, k], P) - self.offset[k]
+        plane = np.sqrt(np.maximum(dist * dist - q * q, 0.0))
+        left = np.maximum(plane - self.cover[k], 0.0)
+        return np.sqrt(left * left + q * q)
 
 
 class _CurveGrid(_StartGrid):
@@ -591,24 +597,21 @@ class _CurveGrid(_StartGrid):
         self.periodic = (model.t.periodic,)
         tt, span, ders = model.evaluate(g, 2, pieces)
         self.state = (tt, span, np.stack(ders).reshape(3 * model.dim, -1))
+        self._set_axes(ders[0], ders[1])
         self._finish(ders[0].T, [model.t])
 
     def start(self, k: np.ndarray) -> tuple:
         tt, span, ders = self.state
         return tt[k], span[k], np.take(ders, k, axis=1).reshape(3, -1, k.size)
 
-    def promise(self, P: np.ndarray, k: np.ndarray) -> np.ndarray:
+    def promise(self, P: np.ndarray, k: np.ndarray, dist: np.ndarray) -> np.ndarray:
         """The curve form of :meth:`_SurfaceGrid.promise`: distance from P to each sample's
-        tangent line, the foot kept within the sample's cover."""
-        D = np.take(self.state[2], k.ravel(), axis=1).reshape(3, -1, *k.shape)
-        X, C1 = D[0], D[1]
-        r = P[:, :, None] - X
-        a = (C1 * r).sum(0) / np.maximum((C1 * C1).sum(0), 1e-300)
-        step = C1 * a
-        length = np.sqrt((step * step).sum(0))
-        step *= np.minimum(1.0, self.cover[k] / np.maximum(length, 1e-300))
-        rest = r - step
-        return np.sqrt((rest * rest).sum(0))
+        tangent line, the foot kept within the sample's cover (t the unit tangent, q = t·(P - X)
+        the offset along it)."""
+        q = np.einsum("dmk,dm->mk", self.axis[:, k], P) - self.offset[k]
+        across = np.maximum(dist * dist - q * q, 0.0)
+        left = np.maximum(np.abs(q) - self.cover[k], 0.0)
+        return np.sqrt(across + left * left)
 
 
 # --------------------------------------------------------------------------- Newton
@@ -1153,7 +1156,7 @@ def _global_search(grid: _StartGrid, solve, P: np.ndarray, noise: float, workers
     # boundary minimum that may lie right beside an interior one
     free = ~grid.on_end([g[c] for g, c in zip(grid.params, cand_cells)])
     blocked = (grid.close_any(cand_cells, cells[:, rows, None], blocks[rows, None]) & free) | (cand_k == k0[rows, None])
-    promise = grid.promise(P[:, rows], cand_k)
+    promise = grid.promise(P[:, rows], cand_k, np.where(reachable, cand_d, 0.0))
     for attempt in range(_MAX_STARTS):
         fresh = reachable & ~blocked & (cand_d < d[rows, None] + grid.cover[cand_k])
         loc = np.flatnonzero(fresh.any(axis=1))
