@@ -69,6 +69,10 @@ _TRUST_MAX = 2.0            # Newton steps are clipped to at most two knot spans
 _FINISH = 0.1               # Taylor-expanded steps keep their error under 0.1 tol
 _INNER = 1                  # Newton iterations on the local Taylor model per evaluation
 _FOCAL = 0.5                # (1 - k1 d)(1 - k2 d) below this: near a centre of curvature
+_MIN_BATCH = 4096           # suspects are searched in blocks of at least this many
+_KEPT = 3                   # derivatives kept per foot for all points (S, S_u, S_v / C, C', C'')
+_TURN = 0.25                # distance x curvature above this: try feet moved round the edge
+_TURN_STEPS = (-3.0, -2.0, -1.0, -0.5, -0.25, 0.25, 0.5, 1.0, 2.0, 3.0)   # arc, in radii of curvature
 
 
 @dataclass(frozen=True)
@@ -488,16 +492,18 @@ class _StartGrid:
                 out |= np.isin(t, ends)
         return out
 
-    def close_any(self, cells: np.ndarray, explored: np.ndarray, valid: np.ndarray) -> np.ndarray:
-        """True where cells (n_dirs, m, K) lie next to any valid explored cell (n_dirs, m, E)."""
-        close = np.broadcast_to(valid[:, None, :], cells.shape[1:] + explored.shape[2:]).copy()
+    def close(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """True where grid cells a and b (n_dirs, m) lie next to each other, pairwise: at
+        most one cell apart on one side and two on the other (a cell is named by its lower
+        corner), wrapping round a closed direction, and in the same piece."""
+        close = np.ones(a.shape[1:], dtype=bool)
         for axis, (n, closed) in enumerate(zip(self.sizes, self.periodic)):
-            diff = cells[axis][:, :, None] - explored[axis][:, None, :]
+            diff = a[axis] - b[axis]
             if closed:
                 diff = (diff + 1) % n - 1
             close &= (diff >= -1) & (diff <= 2)
-            close &= self.segments[axis][cells[axis]][:, :, None] == self.segments[axis][explored[axis]][:, None, :]
-        return close.any(axis=2)
+            close &= self.segments[axis][a[axis]] == self.segments[axis][b[axis]]
+        return close
 
 
 class _SurfaceGrid(_StartGrid):
@@ -567,9 +573,9 @@ class _SurfaceGrid(_StartGrid):
         return uu[k], vv[k], su[k], sv[k], np.take(ders, k, axis=1).reshape(6, 3, -1)
 
     def promise(self, P: np.ndarray, k: np.ndarray, dist: np.ndarray) -> np.ndarray:
-        """For points P (3, m), samples k (m, K) and their distances ``dist`` (m, K) from the
-        points: the distance from P to the tangent plane of each sample, its foot kept
-        within the sample's cover. Ranks the extra Newton starts: near a blunt nose a sample
+        """For points P (3, n) paired with samples k (n) at distances ``dist`` (n): the
+        distance from P to the tangent plane of the sample, its foot kept within the
+        sample's cover. Ranks the extra Newton starts: near a blunt nose a sample
         on the far side of the closer foot is nearer to P than the samples that lead to it,
         so nearest-first would try the wrong ones.
 
@@ -577,7 +583,7 @@ class _SurfaceGrid(_StartGrid):
         in-plane offset is sqrt(dist^2 - q^2); the foot may move ``cover`` of it, so what
         is left is sqrt(max(in-plane - cover, 0)^2 + q^2): four numbers per sample.
         """
-        q = np.einsum("dmk,dm->mk", self.axis[:, k], P) - self.offset[k]
+        q = _dot(self.axis[:, k], P) - self.offset[k]
         plane = np.sqrt(np.maximum(dist * dist - q * q, 0.0))
         left = np.maximum(plane - self.cover[k], 0.0)
         return np.sqrt(left * left + q * q)
@@ -605,10 +611,10 @@ class _CurveGrid(_StartGrid):
         return tt[k], span[k], np.take(ders, k, axis=1).reshape(3, -1, k.size)
 
     def promise(self, P: np.ndarray, k: np.ndarray, dist: np.ndarray) -> np.ndarray:
-        """The curve form of :meth:`_SurfaceGrid.promise`: distance from P to each sample's
+        """The curve form of :meth:`_SurfaceGrid.promise`: distance from P to the sample's
         tangent line, the foot kept within the sample's cover (t the unit tangent, q = t·(P - X)
         the offset along it)."""
-        q = np.einsum("dmk,dm->mk", self.axis[:, k], P) - self.offset[k]
+        q = _dot(self.axis[:, k], P) - self.offset[k]
         across = np.maximum(dist * dist - q * q, 0.0)
         left = np.maximum(np.abs(q) - self.cover[k], 0.0)
         return np.sqrt(across + left * left)
@@ -719,14 +725,15 @@ def _newton_surface(model: _SurfaceModel, P: np.ndarray, start: tuple, tol: floa
     evaluation; the point has converged when there the tangential residual and the next
     Newton step are both <= tol (mm).
 
-    Returns u, v, S (3, m), S_u, S_v, converged, focal (see :func:`_surface_step`).
+    Returns u, v, the derivatives [S, S_u, S_v, S_uu, S_uv, S_vv] at the foot (6, 3, m) (the
+    second ones from the last evaluation), converged, focal (see :func:`_surface_step`).
     """
     m = P.shape[1]
     u, v, su, sv, ders = start
     D = ders if isinstance(ders, np.ndarray) else np.stack(ders)
     pu, pv = model.u.piece_of_span[su], model.v.piece_of_span[sv]      # Newton stays in these
     out_u, out_v, out_focal = np.empty(m), np.empty(m), np.empty(m)
-    out_D = np.empty((3, 3, m))
+    out_D = np.empty((6, 3, m))
     converged = np.zeros(m, dtype=bool)
     idx = np.arange(m)
     trust = np.ones(m)
@@ -750,13 +757,14 @@ def _newton_surface(model: _SurfaceModel, P: np.ndarray, start: tuple, tol: floa
             take = ok | (it == max_iter)
             k, w = idx[small[take]], small[take]
             out_u[k], out_v[k], out_focal[k], converged[k] = u2[take], v2[take], focal2[take], ok[take]
-            out_D[:, :, k] = np.stack(T)[:, :, take]
+            out_D[:3, :, k] = np.stack(T)[:, :, take]
+            out_D[3:, :, k] = Ds[3:, :, take]
             done[w] = True
         if it == max_iter:
             rest = ~done
             k = idx[rest]
             out_u[k], out_v[k], out_focal[k] = u[rest], v[rest], focal[rest]
-            out_D[:, :, k] = D[:3, :, rest]
+            out_D[:, :, k] = D[:, :, rest]
             break
         if done.any():
             keep = ~done
@@ -776,7 +784,7 @@ def _newton_surface(model: _SurfaceModel, P: np.ndarray, start: tuple, tol: floa
         for cur, new in zip((u, v, su, sv, dist), (ut, vt, sut, svt, dt)):
             np.copyto(cur, new, where=accept)
         np.copyto(D, Dt, where=accept)
-    return out_u, out_v, out_D[0], out_D[1], out_D[2], converged, out_focal
+    return out_u, out_v, out_D, converged, out_focal
 
 
 def _curve_step(model: _CurveModel, t: np.ndarray, piece: np.ndarray, r: np.ndarray, C1: np.ndarray, C2: np.ndarray):
@@ -813,13 +821,13 @@ def _curve_model_step(model: _CurveModel, t, piece, P, D, radius):
 def _newton_curve(model: _CurveModel, P: np.ndarray, start: tuple, tol: float, max_iter: int, noise: float):
     """The 1D form of :func:`_newton_surface` for points P (dim, m): C'·(C - P) = 0.
 
-    Returns t, C (dim, m), converged, focal.
+    Returns t, [C, C', C''] at the foot (3, dim, m), converged, focal.
     """
     m, dim = P.shape[1], P.shape[0]
     t, span, ders = start
     D = ders if isinstance(ders, np.ndarray) else np.stack(ders)
     piece = model.t.piece_of_span[span]
-    out_t, out_C, out_focal = np.empty(m), np.empty((dim, m)), np.empty(m)
+    out_t, out_D, out_focal = np.empty(m), np.empty((3, dim, m)), np.empty(m)
     converged = np.zeros(m, dtype=bool)
     idx = np.arange(m)
     trust = np.ones(m)
@@ -837,12 +845,14 @@ def _newton_curve(model: _CurveModel, P: np.ndarray, start: tuple, tol: float, m
             ok = (res2 <= tol) & (np.abs(dt2) * np.sqrt(g2) <= tol) & (span2 == span[small])
             take = ok | (it == max_iter)
             k, w = idx[small[take]], small[take]
-            out_t[k], out_C[:, k], out_focal[k], converged[k] = t2[take], Cs[:, take], focal2[take], ok[take]
+            out_t[k], out_focal[k], converged[k] = t2[take], focal2[take], ok[take]
+            out_D[0][:, k], out_D[1][:, k], out_D[2][:, k] = Cs[:, take], C1s[:, take], Ds[2][:, take]
             done[w] = True
         if it == max_iter:
             rest = ~done
             k = idx[rest]
-            out_t[k], out_C[:, k], out_focal[k] = t[rest], D[0][:, rest], focal[rest]
+            out_t[k], out_focal[k] = t[rest], focal[rest]
+            out_D[:, :, k] = D[:, :, rest]
             break
         if done.any():
             keep = ~done
@@ -861,7 +871,7 @@ def _newton_curve(model: _CurveModel, P: np.ndarray, start: tuple, tol: float, m
         for cur, new in zip((t, span, dist), (tt, spant, dnew)):
             np.copyto(cur, new, where=accept)
         np.copyto(D, Dt, where=accept)
-    return out_t, out_C, converged, out_focal
+    return out_t, out_D, converged, out_focal
 
 
 def _step_scale(step: np.ndarray, radius: np.ndarray) -> np.ndarray:
@@ -896,11 +906,11 @@ def _start_parameters(values: np.ndarray | None, m: int, name: str) -> np.ndarra
     return a
 
 
-def _for_each_block(m: int, work) -> None:
-    """Call ``work(start, stop, kd_workers)`` on blocks of ``_CHUNK`` points, on several
+def _for_each_block(m: int, work, chunk: int = _CHUNK) -> None:
+    """Call ``work(start, stop, kd_workers)`` on blocks of ``chunk`` points, on several
     threads when there are several blocks (numpy and the k-d tree release the GIL; each
     block writes its own rows of the outputs)."""
-    blocks = [(s, min(s + _CHUNK, m)) for s in range(0, m, _CHUNK)]
+    blocks = [(s, min(s + chunk, m)) for s in range(0, m, chunk)]
     n_threads = min(_THREADS, len(blocks))
     if n_threads <= 1:
         for s, e in blocks:
@@ -917,7 +927,7 @@ def _spatial_order(P: np.ndarray) -> np.ndarray:
     lo = P.min(axis=0)
     size = max(float((P.max(axis=0) - lo).max()) / 64.0, 1e-300)
     key = np.minimum((P - lo) / size, 64.0).astype(np.int64)
-    return np.argsort((key[:, 0] * 65 + key[:, 1]) * 65 + key[:, 2], kind="stable")
+    return np.argsort((key[:, 0] * 65 + key[:, 1]) * 65 + key[:, 2])
 
 
 def _inverse(order: np.ndarray) -> np.ndarray:
@@ -984,14 +994,14 @@ def project_points_to_surface(
 ) -> Projection:
     """Closest point on ``surface`` for each of ``points`` (m, 3), mm (seed 001 §2 eqs. 10-11).
 
-    Without ``u0``/``v0`` the search is global (:func:`_global_search`): Newton starts from
-    the nearest sample of a grid on the surface with square cells (about 6 samples on a
-    knot span of median length, more on long or sharply turning spans); where another
-    part of the surface comes close enough to hold a closer foot (the other side of a thin
-    leading or trailing edge) or the point lies near a centre of curvature, Newton starts
-    again from the nearest samples there, and the closest foot wins (eq. 11). With ``u0``
-    and ``v0`` (one pair per point) only a local Newton iteration from them is run: use it
-    to re-project after small changes.
+    Without ``u0``/``v0`` the search is global (:func:`_search`): Newton starts from the
+    nearest sample of a grid on the surface with square cells (about 6 samples on a knot
+    span of median length, more on long or sharply turning spans); where another part of
+    the surface comes close enough to hold a closer foot (the other side of a thin leading
+    or trailing edge) or the point lies near a centre of curvature, Newton starts again
+    from the nearest samples there, and from feet moved round the edge; the closest foot
+    wins (eq. 11). With ``u0`` and ``v0`` (one pair per point) only a local Newton
+    iteration from them is run: use it to re-project after small changes.
 
     ``tol`` (mm) bounds both the tangential residuals |S_u·(S-P)|/|S_u|, |S_v·(S-P)|/|S_v|
     (the orthogonality cosines times the distance) and the next Newton step of the foot.
@@ -1011,41 +1021,37 @@ def project_points_to_surface(
     noise = _rounding_noise(model.scale, P)
 
     def solve(Pc: np.ndarray, start: tuple):
-        uc, vc, S, Su, Sv, cc, focal = _newton_surface(model, Pc, start, tol, max_iter, noise)
-        return [uc, vc], [S, Su, Sv], cc, focal
+        uc, vc, D, cc, focal = _newton_surface(model, Pc, start, tol, max_iter, noise)
+        return [uc, vc], D, cc, focal
 
-    order = _spatial_order(P) if grid is not None and m > _CHUNK else None
-    if order is not None:
-        P = np.take(P, order, axis=0)
-    u, v = np.empty(m), np.empty(m)
-    foot, normal = np.empty((m, 3)), np.empty((m, 3))
-    dist, signed, conv = np.empty(m), np.empty(m), np.empty(m, dtype=bool)
+    if grid is not None:
+        order = _spatial_order(P) if m > _CHUNK else None
+        if order is not None:
+            P = np.take(P, order, axis=0)
+        (u, v), D, conv = _search(grid, solve, lambda p: model.evaluate(p[0], p[1], 2), _surface_turn, P, noise)
+    else:
+        order = None
+        u, v, D, conv = np.empty(m), np.empty(m), np.empty((3, 3, m)), np.empty(m, dtype=bool)
 
-    def work(s: int, e: int, kd_workers: int) -> None:
-        Pc = np.ascontiguousarray(P[s:e].T)
-        if grid is None:
-            (uc, vc), (S, Su, Sv), cc, _ = solve(Pc, model.evaluate(u0[s:e], v0[s:e], 2))
-        else:
-            (uc, vc), (S, Su, Sv), cc = _global_search(grid, solve, Pc, noise, kd_workers)
-        n = np.cross(Su.T, Sv.T)
-        n_len = np.linalg.norm(n, axis=1)
-        off = P[s:e] - S.T
-        d = np.linalg.norm(off, axis=1)
-        # where S_u x S_v vanishes (a collapsed edge) the offset direction is the normal
-        degenerate = n_len <= 1e-14 * np.sqrt(np.maximum(_dot(Su, Su) * _dot(Sv, Sv), 1e-300))
-        n = np.where(
-            degenerate[:, None], off / np.maximum(d, 1e-300)[:, None], n / np.where(degenerate, 1.0, n_len)[:, None]
-        )
-        u[s:e], v[s:e], foot[s:e], dist[s:e], normal[s:e], conv[s:e] = uc, vc, S.T, d, n, cc
-        signed[s:e] = np.where(np.sum(off * n, axis=1) < 0, -d, d)
+        def work(s: int, e: int, kd_workers: int) -> None:
+            (u[s:e], v[s:e]), Dc, conv[s:e], _ = solve(np.ascontiguousarray(P[s:e].T), model.evaluate(u0[s:e], v0[s:e], 2))
+            D[:, :, s:e] = Dc[:3]
 
-    _for_each_block(m, work)
+        _for_each_block(m, work)
+    S, Su, Sv = D[0], D[1], D[2]
+    n = np.cross(Su, Sv, axis=0)
+    n_len = np.sqrt(_dot(n, n))
+    off = P.T - S
+    dist = np.sqrt(_dot(off, off))
+    # where S_u x S_v vanishes (a collapsed edge) the offset direction is the normal
+    degenerate = n_len <= 1e-14 * np.sqrt(np.maximum(_dot(Su, Su) * _dot(Sv, Sv), 1e-300))
+    n = np.where(degenerate, off / np.maximum(dist, 1e-300), n / np.where(degenerate, 1.0, n_len))
+    signed = np.where(_dot(off, n) < 0, -dist, dist)
+    foot, n = np.ascontiguousarray(S.T), np.ascontiguousarray(n.T)
     if order is not None:
         back = _inverse(order)
-        u, v, foot, dist, signed, normal, conv = (
-            np.take(a, back, axis=0) for a in (u, v, foot, dist, signed, normal, conv)
-        )
-    return Projection(u=u, v=v, foot=foot, distance=dist, signed=signed, normal=normal, converged=conv)
+        u, v, foot, dist, signed, n, conv = (np.take(a, back, axis=0) for a in (u, v, foot, dist, signed, n, conv))
+    return Projection(u=u, v=v, foot=foot, distance=dist, signed=signed, normal=n, converged=conv)
 
 
 def project_points_to_curve(
@@ -1072,25 +1078,25 @@ def project_points_to_curve(
     noise = _rounding_noise(model.scale, P)
 
     def solve(Pc: np.ndarray, start: tuple):
-        tc, C, cc, focal = _newton_curve(model, Pc, start, tol, max_iter, noise)
-        return [tc], [C], cc, focal
+        tc, D, cc, focal = _newton_curve(model, Pc, start, tol, max_iter, noise)
+        return [tc], D, cc, focal
 
-    order = _spatial_order(P) if grid is not None and m > _CHUNK else None
-    if order is not None:
-        P = np.take(P, order, axis=0)
-    t, foot = np.empty(m), np.empty((m, dim))
-    dist, conv = np.empty(m), np.empty(m, dtype=bool)
+    if grid is not None:
+        order = _spatial_order(P) if m > _CHUNK else None
+        if order is not None:
+            P = np.take(P, order, axis=0)
+        (t,), D, conv = _search(grid, solve, lambda p: model.evaluate(p[0], 2), _curve_turn, P, noise)
+    else:
+        order = None
+        t, D, conv = np.empty(m), np.empty((1, dim, m)), np.empty(m, dtype=bool)
 
-    def work(s: int, e: int, kd_workers: int) -> None:
-        Pc = np.ascontiguousarray(P[s:e].T)
-        if grid is None:
-            (tc,), (C,), cc, _ = solve(Pc, model.evaluate(t0[s:e], 2))
-        else:
-            (tc,), (C,), cc = _global_search(grid, solve, Pc, noise, kd_workers)
-        t[s:e], foot[s:e], conv[s:e] = tc, C.T, cc
-        dist[s:e] = np.linalg.norm(P[s:e] - C.T, axis=1)
+        def work(s: int, e: int, kd_workers: int) -> None:
+            (t[s:e],), Dc, conv[s:e], _ = solve(np.ascontiguousarray(P[s:e].T), model.evaluate(t0[s:e], 2))
+            D[:, :, s:e] = Dc[:1]
 
-    _for_each_block(m, work)
+        _for_each_block(m, work)
+    foot = np.ascontiguousarray(D[0].T)
+    dist = np.linalg.norm(P - foot, axis=1)
     if order is not None:
         back = _inverse(order)
         t, foot, dist, conv = (np.take(a, back, axis=0) for a in (t, foot, dist, conv))
@@ -1118,10 +1124,91 @@ def _samples_in_reach(grid: _StartGrid, P: np.ndarray, d: np.ndarray, workers: i
     return cand_d[:, :n_cols], cand_k[:, :n_cols]
 
 
-def _global_search(grid: _StartGrid, solve, P: np.ndarray, noise: float, workers: int = -1):
-    """Newton from the nearest grid sample of each point; where another part of the spline
-    could hold a closer foot, Newton again from the other samples in reach: the closest
-    root wins (seed 001 eq. 11).
+@dataclass
+class _Feet:
+    """The best feet found so far for m points: parameters (n_dirs, m), derivatives at the
+    foot (n_ders, dim, m), converged, focal ratio, distance, and the first start sample.
+    Only the first ``_KEPT`` derivatives are kept for all points (S, S_u, S_v: what the
+    normals need); second derivatives are evaluated again where they are needed."""
+
+    params: np.ndarray
+    ders: np.ndarray
+    conv: np.ndarray
+    focal: np.ndarray
+    dist: np.ndarray
+    k0: np.ndarray
+
+    def take(self, rows: np.ndarray) -> _Feet:
+        return _Feet(self.params[:, rows], self.ders[:, :, rows], self.conv[rows], self.focal[rows],
+                     self.dist[rows], self.k0[rows])
+
+    def put(self, rows: np.ndarray | slice, other: _Feet) -> None:
+        self.params[:, rows], self.ders[:, :, rows], self.conv[rows] = other.params, other.ders[:_KEPT], other.conv
+        self.focal[rows], self.dist[rows], self.k0[rows] = other.focal, other.dist, other.k0
+
+    def update(self, rows: np.ndarray, params: list, ders: np.ndarray, conv, focal, dist, noise: float) -> None:
+        """Take the feet of a later Newton run for the points ``rows`` where they are closer."""
+        win = dist < self.dist[rows] - noise
+        w = rows[win]
+        for a, b in zip(self.params, params):
+            a[w] = b[win]
+        self.ders[:, :, w] = ders[:_KEPT, :, win]
+        self.conv[w], self.focal[w], self.dist[w] = conv[win], focal[win], dist[win]
+
+
+def _search(grid: _StartGrid, solve, start_at, turn, P: np.ndarray, noise: float):
+    """Global search for the closest feet of the points P (m, dim) (seed 001 eq. 11).
+
+    1. Newton from the nearest grid sample of every point (:func:`_first_feet`), in blocks
+       of ``_CHUNK`` on the threads;
+    2. the points that could have a closer foot elsewhere (suspects) all together: Newton
+       from other samples in reach (:func:`_more_starts`), in as few blocks as there are
+       threads, so that their many short Newton runs cost few numpy calls;
+    3. points farther from their foot than ``_TURN`` times the local radius of curvature
+       (off a thin edge): Newton from the foot moved round the edge (:func:`_turn_starts`).
+
+    ``solve(P, start)`` -> (params, derivatives at the foot, converged, focal);
+    ``start_at(params)`` evaluates a Newton start; ``turn(ders)`` gives the largest
+    curvature and its direction (:func:`_surface_turn`). Returns params, derivatives,
+    converged.
+    """
+    m = P.shape[0]
+    feet = None
+    suspect, bend = np.empty(m, dtype=bool), np.empty(m)
+
+    def first(s: int, e: int, workers: int) -> None:
+        nonlocal feet
+        block, suspect[s:e] = _first_feet(grid, solve, np.ascontiguousarray(P[s:e].T), noise, workers)
+        bend[s:e] = block.dist * turn(block.ders)[0]
+        if feet is None:            # allocated from the first block's shapes (threads race: lock)
+            with _cache_lock:
+                if feet is None:
+                    feet = _Feet(np.empty((block.params.shape[0], m)), np.empty((_KEPT,) + block.ders.shape[1:2] + (m,)),
+                                 np.empty(m, dtype=bool), np.empty(m), np.empty(m), np.empty(m, dtype=np.intp))
+        feet.put(slice(s, e), block)
+
+    _for_each_block(m, first)
+    rows = np.flatnonzero(suspect)
+    if rows.size and grid.size > 1:
+        def more(s: int, e: int, workers: int) -> None:
+            r = rows[s:e]
+            sub = feet.take(r)
+            _more_starts(grid, solve, np.ascontiguousarray(P[r].T), sub, noise, workers)
+            feet.put(r, sub)
+            bend[r] = sub.dist * turn(np.stack(start_at(list(sub.params))[-1]))[0]
+
+        _for_each_block(rows.size, more, max(_MIN_BATCH, -(-rows.size // _THREADS)))
+    rows = np.flatnonzero(bend > _TURN)
+    if rows.size:
+        sub = feet.take(rows)
+        _turn_starts(solve, start_at, turn, np.ascontiguousarray(P[rows].T), sub, noise)
+        feet.put(rows, sub)
+    return list(feet.params), feet.ders, feet.conv
+
+
+def _first_feet(grid: _StartGrid, solve, P: np.ndarray, noise: float, workers: int) -> tuple[_Feet, np.ndarray]:
+    """Newton from the nearest grid sample of each point P (dim, m); and which points are
+    suspects, that is, could have a closer foot elsewhere.
 
     A closer foot F' than the foot F found (distance d) lies within 2d of F, so the
     nearest corner X_j of its cell lies within 2d + cell_cover + cover[j] of the nearest
@@ -1129,61 +1216,126 @@ def _global_search(grid: _StartGrid, solve, P: np.ndarray, noise: float, workers
     (``cell_separation``), F' could only be a second root next to F, which needs P near a
     centre of curvature of F (``focal``). Neither holds for a foot held on a clamped end
     or a crease (there eq. 10 does not hold and minima may lie side by side).
-    Points that pass neither test are suspects: of their ``_N_WIDE`` nearest samples, the
-    nearest one closer than d + cover, not tried yet and not next to an interior foot
-    already found starts Newton again, up to ``_MAX_STARTS`` more times per point.
-    ``solve(P, start)`` -> (params, vectors, converged, focal), ``vectors[0]`` the foot.
     """
-    _, k0 = grid.tree.query(P.T, k=1, eps=0.0, workers=workers)     # a start, not an answer: approximate is enough
+    _, k0 = grid.tree.query(P.T, k=1, workers=workers)
     k0 = np.atleast_1d(k0)
-    params, vecs, conv, focal = solve(P, grid.start(k0))
-    d = np.sqrt(_dot(vecs[0] - P, vecs[0] - P))
-    cells = grid.param_cells(params)
-    corner = grid.flat_index(cells)
+    params, ders, conv, focal = solve(P, grid.start(k0))
+    d = np.sqrt(_dot(ders[0] - P, ders[0] - P))
+    corner = grid.flat_index(grid.param_cells(params))
     inside = ~grid.on_end(params)
     safe = inside & (focal >= _FOCAL) & (2.0 * d + grid.cell_cover[corner] < grid.cell_separation[corner])
-    rows = np.flatnonzero(~safe)
-    if rows.size == 0 or grid.size < 2:
-        return params, vecs, conv
-    cand_d, cand_k = _samples_in_reach(grid, P[:, rows], d[rows], workers)
+    return _Feet(np.stack(params), ders, conv, focal, d, k0), ~safe
+
+
+def _more_starts(grid: _StartGrid, solve, P: np.ndarray, feet: _Feet, noise: float, workers: int) -> None:
+    """Newton again for the suspect points P (dim, m) from other samples in reach; the
+    closest root wins (``feet`` updated in place).
+
+    Of the ``_N_WIDE`` nearest samples of a point, the nearest one closer than d + cover,
+    not tried yet and not next to an interior foot already found starts Newton again, up
+    to ``_MAX_STARTS`` more times per point. The candidates are kept as a flat list of
+    (point, sample) pairs, sorted by point and then by distance: a point has ~8 of them
+    on average but up to 64, so a dense table would be mostly padding.
+    """
+    params, d = list(feet.params), feet.dist
+    cand_d, cand_k = _samples_in_reach(grid, P, d, workers)
     reachable = np.isfinite(cand_d)
-    cand_k = np.where(reachable, cand_k, 0)
-    cand_cells = grid.sample_cells(cand_k)                        # (n_dirs, rows, K)
+    cover = grid.cover[np.where(reachable, cand_k, 0)]
+    row, col = np.nonzero(reachable & (cand_d < d[:, None] + cover))   # d only shrinks: these stay all
+    if row.size == 0:
+        return
+    k, dk, cover = cand_k[row, col], cand_d[row, col], cover[row, col]
+    cells = grid.sample_cells(k)
     # a foot blocks the samples next to it (Newton from there would find it again), except
     # near a centre of curvature, where a second root may lie in the very next cell
-    blocks = inside & (focal >= _FOCAL)
+    blocks = ~grid.on_end(params) & (feet.focal >= _FOCAL)
     # nor does it block samples on a clamped end or crease: Newton held there finds a
     # boundary minimum that may lie right beside an interior one
-    free = ~grid.on_end([g[c] for g, c in zip(grid.params, cand_cells)])
-    blocked = (grid.close_any(cand_cells, cells[:, rows, None], blocks[rows, None]) & free) | (cand_k == k0[rows, None])
-    promise = grid.promise(P[:, rows], cand_k, np.where(reachable, cand_d, 0.0))
+    free = ~grid.on_end([g[c] for g, c in zip(grid.params, cells)])
+    blocked = (blocks[row] & free & grid.close(cells, grid.param_cells(params)[:, row])) | (k == feet.k0[row])
+    promise = grid.promise(P[:, row], k, dk)
+    starts = np.flatnonzero(np.r_[True, row[1:] != row[:-1]])        # each point's first pair
+    slot = np.full(d.size, -1)
     for attempt in range(_MAX_STARTS):
-        fresh = reachable & ~blocked & (cand_d < d[rows, None] + grid.cover[cand_k])
-        loc = np.flatnonzero(fresh.any(axis=1))
-        if loc.size == 0:
+        fresh = ~blocked & (dk < d[row] + cover)
+        if not fresh.any():
             break
         # alternately the fresh sample with the nearest tangent plane (a second smooth minimum
         # round a blunt nose) and the nearest fresh sample (minima on creases and corners,
         # where tangent planes mislead)
-        if attempt % 2 == 0:
-            j = np.argmin(np.where(fresh[loc], promise[loc], np.inf), axis=1)
-        else:
-            j = np.argmax(fresh[loc], axis=1)
-        k = cand_k[loc, j]
-        sel = rows[loc]
-        p2, v2, c2, f2 = solve(P[:, sel], grid.start(k))
-        d2 = np.sqrt(_dot(v2[0] - P[:, sel], v2[0] - P[:, sel]))
-        blocked[loc, j] = True
-        blocks2 = ~grid.on_end(p2) & (f2 >= _FOCAL)
-        blocked[loc] |= grid.close_any(cand_cells[:, loc], grid.param_cells(p2)[:, :, None], blocks2[:, None]) & free[loc]
-        win = d2 < d[sel] - noise
-        w = sel[win]
-        for a, b in zip(params, p2):
-            a[w] = b[win]
-        for a, b in zip(vecs, v2):
-            a[:, w] = b[:, win]
-        conv[w], d[w] = c2[win], d2[win]
-    return params, vecs, conv
+        j = _first_least(np.where(fresh, promise if attempt % 2 == 0 else dk, np.inf), row, starts)
+        loc = row[j]
+        p2, D2, c2, f2 = solve(P[:, loc], grid.start(k[j]))
+        d2 = np.sqrt(_dot(D2[0] - P[:, loc], D2[0] - P[:, loc]))
+        blocked[j] = True
+        slot[loc] = np.arange(loc.size)
+        pairs = np.flatnonzero(slot[row] >= 0)                          # all pairs of the points just run
+        at = slot[row[pairs]]
+        found = ~grid.on_end(p2) & (f2 >= _FOCAL)
+        blocked[pairs] |= found[at] & free[pairs] & grid.close(cells[:, pairs], grid.param_cells(p2)[:, at])
+        slot[loc] = -1
+        feet.update(loc, p2, D2, c2, f2, d2, noise)
+
+
+def _first_least(key: np.ndarray, row: np.ndarray, starts: np.ndarray) -> np.ndarray:
+    """Per point (pairs grouped by ``row``, groups beginning at ``starts``), the first pair
+    with the least finite ``key``; points whose keys are all inf get none."""
+    least = np.minimum.reduceat(key, starts)
+    group = np.cumsum(np.r_[0, np.diff(row) != 0])              # group index of each pair
+    hit = np.flatnonzero((key == least[group]) & np.isfinite(key))
+    return hit[np.r_[True, row[hit][1:] != row[hit][:-1]]] if hit.size else hit
+
+
+def _turn_starts(solve, start_at, turn, P: np.ndarray, feet: _Feet, noise: float) -> None:
+    """Newton from each foot moved round the edge, for points P (dim, m) farther from
+    their foot than ``_TURN`` times its radius of curvature R: off a thin leading edge
+    a closer foot may lie round the nose, beyond the grid samples the other starts use
+    (on Rotor 37's 0.12 mm LE radius one was seen 4 µm closer). The foot is moved along
+    the direction of largest curvature by ``_TURN_STEPS`` x R of arc (about 14 to 170
+    degrees round the nose, both ways); the closest foot wins (``feet`` in place)."""
+    kmax, step = turn(np.stack(start_at(list(feet.params))[-1]))
+    radius = 1.0 / np.maximum(kmax, 1e-300)
+    base = feet.params.copy()
+    for f in _TURN_STEPS:
+        params = base + (f * radius) * step
+        p2, D2, c2, f2 = solve(P, start_at(params))
+        d2 = np.sqrt(_dot(D2[0] - P, D2[0] - P))
+        feet.update(np.arange(d2.size), p2, D2, c2, f2, d2, noise)
+
+
+def _surface_turn(D: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Largest |principal curvature| (1/mm) at the feet, from the derivatives D (6, 3, m),
+    and its direction as a parameter step (2, m) that moves the foot by 1 mm."""
+    _, Su, Sv, Suu, Suv, Svv = D
+    E, F, G = _dot(Su, Su), _dot(Su, Sv), _dot(Sv, Sv)
+    n = np.cross(Su, Sv, axis=0)
+    n /= np.maximum(np.sqrt(_dot(n, n)), 1e-300)
+    L, M, N = _dot(Suu, n), _dot(Suv, n), _dot(Svv, n)
+    det = np.maximum(E * G - F * F, 1e-300)
+    K = (L * N - M * M) / det
+    H = (E * N - 2.0 * F * M + G * L) / (2.0 * det)
+    root = np.sqrt(np.maximum(H * H - K, 0.0))
+    k = np.where(H >= 0, H + root, H - root)                  # the principal curvature of larger size
+    # null vector of II - k I, in the better-conditioned of its two forms
+    a1u, a1v = M - k * F, -(L - k * E)
+    a2u, a2v = N - k * G, -(M - k * F)
+    first = a1u * a1u + a1v * a1v >= a2u * a2u + a2v * a2v
+    au, av = np.where(first, a1u, a2u), np.where(first, a1v, a2v)
+    size = np.sqrt(np.maximum(au * au * E + 2.0 * au * av * F + av * av * G, 0.0))
+    umbilic = size <= 1e-12 * np.sqrt(E * G)
+    au = np.where(umbilic, 1.0 / np.sqrt(np.maximum(E, 1e-300)), au / np.where(umbilic, 1.0, size))
+    av = np.where(umbilic, 0.0, av / np.where(umbilic, 1.0, size))
+    return np.abs(k), np.stack([au, av])
+
+
+def _curve_turn(D: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Curvature (1/mm) at the feet from [C, C', C''] (3, dim, m), and the parameter step
+    (1, m) that moves the foot by 1 mm along the curve."""
+    _, C1, C2 = D
+    g = _dot(C1, C1)
+    cross = np.maximum(g * _dot(C2, C2) - _dot(C1, C2) ** 2, 0.0)
+    speed = np.sqrt(np.maximum(g, 1e-300))
+    return np.sqrt(cross) / speed ** 3, (1.0 / speed)[None, :]
 
 
 def distance_stats(d: np.ndarray, signed: bool | None = None) -> dict[str, float | int]:

@@ -40,9 +40,6 @@ FreeCAD, Part = import_freecad()
 
 _NEAR = 0.01                # median distance under this fraction of the nominal's size: in place
 _FAR = 0.1                  # ... above this: another frame (or units)
-_NEAR_FOCAL = 0.25         # distance x curvature above this: look for a closer foot round the edge
-_RESTARTS = [(s * du, 0.0) for du in (0.0025, 0.005, 0.01, 0.02, 0.04) for s in (-1, 1)] + \
-    [(s * du, dv) for du in (0.005, 0.01) for s in (-1, 1) for dv in (-0.02, 0.02)]
 _UNIT_CHECK_POINTS = 500    # points used for that check
 _SCALES = ((1 / 25.4, "the points look like inches: multiply them by 25.4"),
            (25.4, "the points look like millimetres against a nominal in inches: convert the nominal to mm"),
@@ -134,39 +131,6 @@ def _core_surface(face: Any) -> BSplineSurface | None:
     return from_part_surface(surf)
 
 
-def _project_with_restarts(surface: BSplineSurface, P: np.ndarray):
-    """Core projection, then more Newton starts for points near a centre of curvature.
-
-    A point farther from its foot than a quarter of the local radius of curvature - off a
-    thin leading edge, say - may have a closer foot round the edge (seed 001 eq. 11). The
-    core's global search looks for it, but on Rotor 37's 0.12 mm LE radius it was seen to
-    miss one by 4 µm (1 point in 2000); Newton from feet shifted round the section by up to
-    4 % of the period (and along the span by 2 %), closest foot wins, closes that gap.
-    """
-    from dataclasses import replace
-
-    from bladerecon.core.surface_analysis import surface_curvature
-
-    pr = project_points_to_surface(surface, P)
-    c = surface_curvature(surface, pr.u, pr.v)
-    kmax = np.maximum(np.abs(c.k1), np.abs(c.k2))
-    rows = np.flatnonzero(pr.distance * kmax > _NEAR_FOCAL)
-    if rows.size == 0:
-        return pr
-    fields = {name: getattr(pr, name).copy() for name in ("u", "v", "foot", "distance", "signed", "normal", "converged")}
-    (u0, u1), (v0, v1) = surface.u_domain, surface.v_domain
-    Q = P[rows]
-    for du, dv in _RESTARTS:
-        u = fields["u"][rows] + du * (u1 - u0)
-        u = (u - u0) % (u1 - u0) + u0 if surface.u_periodic else np.clip(u, u0, u1)
-        v = np.clip(fields["v"][rows] + dv * (v1 - v0), v0, v1)
-        alt = project_points_to_surface(surface, Q, u, v)
-        win = alt.distance < fields["distance"][rows] - 1e-12
-        for name in fields:
-            fields[name][rows[win]] = getattr(alt, name)[win]
-    return replace(pr, **fields)
-
-
 class Nominal:
     """A nominal shape ready for measuring: core B-spline faces and OCC faces (mm)."""
 
@@ -206,7 +170,7 @@ class Nominal:
         fu, fv = np.full(m, np.nan), np.full(m, np.nan)
         methods = []
         for k, surf, sign in self.core:
-            pr = _project_with_restarts(surf, P)
+            pr = project_points_to_surface(surf, P)
             win = pr.distance < best
             best[win], signed[win] = pr.distance[win], sign * pr.signed[win]
             foot[win], normal[win], face[win] = pr.foot[win], sign * pr.normal[win], k
