@@ -1132,25 +1132,29 @@ def project_points_to_curve(
     return CurveProjection(t=t, foot=foot, distance=dist, converged=conv)
 
 
-def _samples_in_reach(grid: _StartGrid, P: np.ndarray, d: np.ndarray, workers: int) -> tuple[np.ndarray, np.ndarray]:
-    """Grid samples within d + reach of each point P (dim, m), nearest first, as (m, K)
-    distance and index arrays padded with inf (K at most ``_N_WIDE``)."""
+def _samples_in_reach(grid: _StartGrid, P: np.ndarray, d: np.ndarray, workers: int) -> tuple[np.ndarray, ...]:
+    """Grid samples within d + reach of each point P (dim, m), at most ``_N_WIDE`` per point,
+    as flat (point, sample, distance) arrays sorted by point and then by distance."""
     radius = d + grid.reach
     n_near = min(_N_FEW, grid.size)
     cand_d, cand_k = grid.tree.query(P.T, k=n_near, distance_upper_bound=float(radius.max()), workers=workers)
     cand_d, cand_k = cand_d.reshape(P.shape[1], -1), cand_k.reshape(P.shape[1], -1)
-    full = np.flatnonzero(cand_d[:, -1] < radius)
-    if full.size and grid.size > n_near:
-        more = min(_N_WIDE, grid.size)
-        wd, wk = grid.tree.query(P[:, full].T, k=more, distance_upper_bound=float(radius[full].max()), workers=workers)
-        pad = ((0, 0), (0, more - n_near))
-        cand_d = np.pad(cand_d, pad, constant_values=np.inf)
-        cand_k = np.pad(cand_k, pad, constant_values=grid.size)
-        cand_d[full], cand_k[full] = wd.reshape(full.size, -1), wk.reshape(full.size, -1)
     inside = cand_d < radius[:, None]
-    cand_d = np.where(inside, cand_d, np.inf)
-    n_cols = max(int(inside.sum(axis=1).max()), 1)
-    return cand_d[:, :n_cols], cand_k[:, :n_cols]
+    full = np.flatnonzero(inside[:, -1]) if grid.size > n_near else np.zeros(0, dtype=np.intp)
+    inside[full] = False                    # these come from the wider query below
+    row, col = np.nonzero(inside)
+    rows, ks, ds = [row], [cand_k[row, col]], [cand_d[row, col]]
+    if full.size:
+        wd, wk = grid.tree.query(P[:, full].T, k=min(_N_WIDE, grid.size),
+                                 distance_upper_bound=float(radius[full].max()), workers=workers)
+        wd, wk = wd.reshape(full.size, -1), wk.reshape(full.size, -1)
+        row, col = np.nonzero(wd < radius[full, None])
+        rows.append(full[row])
+        ks.append(wk[row, col])
+        ds.append(wd[row, col])
+    row = np.concatenate(rows)
+    order = np.argsort(row, kind="stable")          # each part is sorted by point, then distance
+    return row[order], np.concatenate(ks)[order], np.concatenate(ds)[order]
 
 
 @dataclass
@@ -1272,13 +1276,12 @@ def _more_starts(grid: _StartGrid, solve, P: np.ndarray, feet: _Feet, noise: flo
     on average but up to 64, so a dense table would be mostly padding.
     """
     params, d = list(feet.params), feet.dist
-    cand_d, cand_k = _samples_in_reach(grid, P, d, workers)
-    reachable = np.isfinite(cand_d)
-    cover = grid.cover[np.where(reachable, cand_k, 0)]
-    row, col = np.nonzero(reachable & (cand_d < d[:, None] + cover))   # d only shrinks: these stay all
-    if row.size == 0:
+    row, k, dk = _samples_in_reach(grid, P, d, workers)
+    cover = grid.cover[k]
+    keep = dk < d[row] + cover                                     # d only shrinks: these are all
+    if not keep.any():
         return
-    k, dk, cover = cand_k[row, col], cand_d[row, col], cover[row, col]
+    row, k, dk, cover = row[keep], k[keep], dk[keep], cover[keep]
     cells = grid.sample_cells(k)
     # a foot blocks the samples next to it (Newton from there would find it again), except
     # near a centre of curvature, where a second root may lie in the very next cell
@@ -1339,12 +1342,14 @@ def _turn_starts(solve, start_at, turn, P: np.ndarray, feet: _Feet, noise: float
     degrees round the nose, both ways); the closest foot wins (``feet`` in place)."""
     kmax, step = turn(np.stack(start_at(list(feet.params))[-1]))
     radius = 1.0 / np.maximum(kmax, 1e-300)
-    base = feet.params.copy()
-    for f in _TURN_STEPS:
-        params = base + (f * radius) * step
-        p2, D2, c2, f2 = solve(P, start_at(params))
-        d2 = np.sqrt(_dot(D2[0] - P, D2[0] - P))
-        feet.update(np.arange(d2.size), p2, D2, c2, f2, d2, noise)
+    m, n = P.shape[1], len(_TURN_STEPS)
+    shift = np.repeat(np.asarray(_TURN_STEPS), m)                  # all moves in one Newton run
+    params = np.tile(feet.params, n) + shift * np.tile(radius * step, n)
+    Pn = np.tile(P, n)
+    p2, D2, c2, f2 = solve(Pn, start_at(params))
+    d2 = np.sqrt(_dot(D2[0] - Pn, D2[0] - Pn))
+    best = np.argmin(d2.reshape(n, m), axis=0) * m + np.arange(m)   # closest of the moves per point
+    feet.update(np.arange(m), [p[best] for p in p2], D2[:, :, best], c2[best], f2[best], d2[best], noise)
 
 
 def _surface_turn(D: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

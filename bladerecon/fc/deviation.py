@@ -164,6 +164,11 @@ class Nominal:
         """Closest foot over all faces for each point (m, 3) mm."""
         P = np.asarray(points, dtype=float).reshape(-1, 3)
         m = len(P)
+        if len(self.core) == 1 and not self.occ:          # one B-spline face: nothing to choose between
+            (k, surf, sign), = self.core
+            pr = project_points_to_surface(surf, P)
+            return PointDeviation(sign * pr.signed, pr.foot, sign * pr.normal, np.full(m, k), ("core-projection",),
+                                  pr.u, pr.v)
         best = np.full(m, np.inf)
         signed, foot, normal = np.zeros(m), np.zeros((m, 3)), np.zeros((m, 3))
         face = np.full(m, -1, dtype=int)
