@@ -135,10 +135,10 @@ class _Intervals:
         if self.table is None:
             return np.clip(np.searchsorted(self.breaks, u, side="right") - 1, 0, self.last)
         b = ((u - self.lo) * self.scale).astype(np.intp)
-        i = self.table[np.clip(b, 0, self.table.size - 1)]
+        i = self.table[np.minimum(np.maximum(b, 0), self.table.size - 1)]
         i += u >= self.padded[i + 1]
         i -= u < self.breaks[i]
-        return np.clip(i, 0, self.last)
+        return np.minimum(np.maximum(i, 0), self.last)
 
 
 class _SpanPolynomials:
@@ -175,6 +175,7 @@ class _SpanPolynomials:
         self.piece_of_span = np.repeat(np.arange(ends.size - 1), np.diff(ends))
         self.piece_first, self.piece_last = ends[:-1], ends[1:] - 1       # span range of each piece
         self.piece_lo, self.piece_hi = self.breaks[ends[:-1]], self.breaks[ends[1:]]
+        self.one_piece = ends.size == 2        # bounds are then the domain's: scalars, no look-ups
 
     @property
     def n_spans(self) -> int:
@@ -184,21 +185,25 @@ class _SpanPolynomials:
         """u + du, kept inside its piece (a wrapping direction is wrapped later)."""
         if self.wraps:
             return u + du
-        return np.clip(u + du, self.piece_lo[piece], self.piece_hi[piece])
+        if self.one_piece:
+            return np.minimum(np.maximum(u + du, self.lo), self.hi)
+        return np.minimum(np.maximum(u + du, self.piece_lo[piece]), self.piece_hi[piece])
 
     def held(self, u: np.ndarray, grad: np.ndarray, piece: np.ndarray) -> np.ndarray:
         """True where u sits on an end of its piece and the gradient pushes it outwards."""
         if self.wraps:
             return np.zeros(u.shape, dtype=bool)
+        if self.one_piece:
+            return ((u <= self.lo) & (grad > 0)) | ((u >= self.hi) & (grad < 0))
         return ((u <= self.piece_lo[piece]) & (grad > 0)) | ((u >= self.piece_hi[piece]) & (grad < 0))
 
     def locate(self, u: np.ndarray, piece: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Parameters wrapped or clipped into the domain, their span (one of the piece's
         spans, if given: the ends of a piece are evaluated from inside), offset from centre."""
-        u = wrap_parameters(u, self.lo, self.hi) if self.wraps else np.clip(u, self.lo, self.hi)
+        u = wrap_parameters(u, self.lo, self.hi) if self.wraps else np.minimum(np.maximum(u, self.lo), self.hi)
         span = self.spans(u)
-        if piece is not None and not self.wraps:
-            span = np.clip(span, self.piece_first[piece], self.piece_last[piece])
+        if piece is not None and not self.wraps and not self.one_piece:
+            span = np.minimum(np.maximum(span, self.piece_first[piece]), self.piece_last[piece])
         return u, span, u - self.centres[span]
 
 
