@@ -33,7 +33,9 @@ Units: millimetres everywhere (points, feet, distances, ``tol``).
 """
 from __future__ import annotations
 
+import mmap
 import os
+import sys
 import threading
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
@@ -940,18 +942,67 @@ def _start_parameters(values: np.ndarray | None, m: int, name: str) -> np.ndarra
     return a
 
 
-def _for_each_block(m: int, work, chunk: int = _CHUNK) -> None:
-    """Call ``work(start, stop, kd_workers)`` on blocks of ``chunk`` points, on several
-    threads when there are several blocks (numpy and the k-d tree release the GIL; each
-    block writes its own rows of the outputs)."""
+def _for_each_block(m: int, work, chunk: int = _CHUNK, shared: bool = False) -> None:
+    """Call ``work(start, stop, kd_workers)`` on blocks of ``chunk`` points, in parallel
+    when there are several blocks; each block writes its own rows of the outputs.
+
+    With ``shared`` (the outputs live in shared memory, :func:`_shared`) and where a fork is
+    safe (:func:`_can_fork`), the blocks are split between this process and forked
+    children: numpy's many short calls scale far better over processes than over threads,
+    which hand the GIL to and fro. Otherwise threads (numpy and the k-d tree release the
+    GIL for their loops).
+    """
     blocks = [(s, min(s + chunk, m)) for s in range(0, m, chunk)]
-    n_threads = min(_THREADS, len(blocks))
-    if n_threads <= 1:
+    n = min(_THREADS, len(blocks))
+    if n <= 1:
         for s, e in blocks:
             work(s, e, -1)
-        return
-    with ThreadPoolExecutor(n_threads) as pool:
-        list(pool.map(lambda block: work(block[0], block[1], 1), blocks))
+    elif shared and _can_fork():
+        _fork_blocks([blocks[k::n] for k in range(n)], work)
+    else:
+        with ThreadPoolExecutor(n) as pool:
+            list(pool.map(lambda block: work(block[0], block[1], 1), blocks))
+
+
+def _can_fork() -> bool:
+    """A fork is safe in a single-threaded process on Linux without a Qt application (in
+    FreeCAD's GUI threads are used instead); ``BLADERECON_PROCESSES=0`` turns it off."""
+    return (sys.platform.startswith("linux") and hasattr(os, "fork") and threading.active_count() == 1
+            and os.environ.get("BLADERECON_PROCESSES", "1") != "0"
+            and not any(name in sys.modules for name in ("PySide2.QtCore", "PySide6.QtCore", "PyQt5.QtCore")))
+
+
+def _fork_blocks(groups: list[list[tuple[int, int]]], work) -> None:
+    """Run the first group of blocks here and each other group in a forked child; a child
+    that fails (or cannot be forked) has its blocks run here afterwards."""
+    children = []
+    for group in groups[1:]:
+        try:
+            pid = os.fork()
+        except OSError:
+            children.append((None, group))
+            continue
+        if pid == 0:                                   # the child: its blocks, then leave at once
+            code = 1
+            try:
+                for s, e in group:
+                    work(s, e, 1)
+                code = 0
+            finally:
+                os._exit(code)
+        children.append((pid, group))
+    for s, e in groups[0]:
+        work(s, e, 1)
+    for pid, group in children:
+        if pid is None or os.waitpid(pid, 0)[1] != 0:
+            for s, e in group:
+                work(s, e, 1)
+
+
+def _shared(shape: tuple[int, ...], dtype=float) -> np.ndarray:
+    """An array in anonymous shared memory: what forked children write, the parent sees."""
+    size = int(np.prod(shape)) * np.dtype(dtype).itemsize
+    return np.frombuffer(mmap.mmap(-1, max(size, 1)), dtype=dtype, count=int(np.prod(shape))).reshape(shape)
 
 
 def _spatial_order(P: np.ndarray) -> np.ndarray:
@@ -1065,27 +1116,33 @@ def project_points_to_surface(
         (u, v), D, conv = _search(grid, solve, lambda p: model.evaluate(p[0], p[1], 2), _surface_turn, P, noise)
     else:
         order = None
-        u, v, D, conv = np.empty(m), np.empty(m), np.empty((3, 3, m)), np.empty(m, dtype=bool)
+        u, v, D, conv = _shared((m,)), _shared((m,)), _shared((3, 3, m)), _shared((m,), bool)
 
         def work(s: int, e: int, kd_workers: int) -> None:
             (u[s:e], v[s:e]), Dc, conv[s:e], _ = solve(np.ascontiguousarray(P[s:e].T), model.evaluate(u0[s:e], v0[s:e], 2))
             D[:, :, s:e] = Dc[:3]
 
-        _for_each_block(m, work)
-    S, Su, Sv = D[0], D[1], D[2]
-    n = np.cross(Su, Sv, axis=0)
-    n_len = np.sqrt(_dot(n, n))
-    off = P.T - S
-    dist = np.sqrt(_dot(off, off))
-    # where S_u x S_v vanishes (a collapsed edge) the offset direction is the normal
-    degenerate = n_len <= 1e-14 * np.sqrt(np.maximum(_dot(Su, Su) * _dot(Sv, Sv), 1e-300))
-    n = np.where(degenerate, off / np.maximum(dist, 1e-300), n / np.where(degenerate, 1.0, n_len))
-    signed = np.where(_dot(off, n) < 0, -dist, dist)
-    foot, n = np.ascontiguousarray(S.T), np.ascontiguousarray(n.T)
-    if order is not None:
-        back = _inverse(order)
-        u, v, foot, dist, signed, n, conv = (np.take(a, back, axis=0) for a in (u, v, foot, dist, signed, n, conv))
-    return Projection(u=u, v=v, foot=foot, distance=dist, signed=signed, normal=n, converged=conv)
+        _for_each_block(m, work, shared=True)
+    out = Projection(u=_shared((m,)), v=_shared((m,)), foot=_shared((m, 3)), distance=_shared((m,)),
+                     signed=_shared((m,)), normal=_shared((m, 3)), converged=_shared((m,), bool))
+
+    def finish(s: int, e: int, kd_workers: int) -> None:
+        """Normals and signs of the feet s:e, written back in the caller's point order."""
+        rows = order[s:e] if order is not None else slice(s, e)
+        S, Su, Sv = D[0][:, s:e], D[1][:, s:e], D[2][:, s:e]
+        n = np.cross(Su, Sv, axis=0)
+        n_len = np.sqrt(_dot(n, n))
+        off = np.ascontiguousarray(P[s:e].T) - S
+        dist = np.sqrt(_dot(off, off))
+        # where S_u x S_v vanishes (a collapsed edge) the offset direction is the normal
+        degenerate = n_len <= 1e-14 * np.sqrt(np.maximum(_dot(Su, Su) * _dot(Sv, Sv), 1e-300))
+        n = np.where(degenerate, off / np.maximum(dist, 1e-300), n / np.where(degenerate, 1.0, n_len))
+        out.u[rows], out.v[rows], out.converged[rows] = u[s:e], v[s:e], conv[s:e]
+        out.foot[rows], out.normal[rows], out.distance[rows] = S.T, n.T, dist
+        out.signed[rows] = np.where(_dot(off, n) < 0, -dist, dist)
+
+    _for_each_block(m, finish, shared=True)
+    return out
 
 
 def project_points_to_curve(
@@ -1210,22 +1267,17 @@ def _search(grid: _StartGrid, solve, start_at, turn, P: np.ndarray, noise: float
     curvature and its direction (:func:`_surface_turn`). Returns params, derivatives,
     converged.
     """
-    m = P.shape[0]
-    feet = None
-    suspect, bend = np.empty(m, dtype=bool), np.empty(m)
+    m, dim = P.shape
+    feet = _Feet(_shared((len(grid.sizes), m)), _shared((_KEPT, dim, m)), _shared((m,), bool), _shared((m,)),
+                 _shared((m,)), _shared((m,), np.intp))
+    suspect, bend = _shared((m,), bool), _shared((m,))
 
     def first(s: int, e: int, workers: int) -> None:
-        nonlocal feet
         block, suspect[s:e] = _first_feet(grid, solve, np.ascontiguousarray(P[s:e].T), noise, workers)
         bend[s:e] = block.dist * turn(block.ders)[0]
-        if feet is None:            # allocated from the first block's shapes (threads race: lock)
-            with _cache_lock:
-                if feet is None:
-                    feet = _Feet(np.empty((block.params.shape[0], m)), np.empty((_KEPT,) + block.ders.shape[1:2] + (m,)),
-                                 np.empty(m, dtype=bool), np.empty(m), np.empty(m), np.empty(m, dtype=np.intp))
         feet.put(slice(s, e), block)
 
-    _for_each_block(m, first)
+    _for_each_block(m, first, shared=True)
     rows = np.flatnonzero(suspect)
     if rows.size and grid.size > 1:
         def more(s: int, e: int, workers: int) -> None:
@@ -1235,7 +1287,7 @@ def _search(grid: _StartGrid, solve, start_at, turn, P: np.ndarray, noise: float
             feet.put(r, sub)
             bend[r] = sub.dist * turn(np.stack(start_at(list(sub.params))[-1]))[0]
 
-        _for_each_block(rows.size, more, max(_MIN_BATCH, -(-rows.size // _THREADS)))
+        _for_each_block(rows.size, more, max(_MIN_BATCH, -(-rows.size // _THREADS)), shared=True)
     rows = np.flatnonzero(bend > _TURN)
     if rows.size:
         sub = feet.take(rows)
