@@ -375,6 +375,11 @@ _TE_POINTS = np.array([
     [21.774880869071076, 16.757688667341856, 26.364912180840186],
     [21.66605038204694, 16.891979849833895, 28.18658119860012],
     [23.18484476128657, 14.148878131111314, 9.966723529773668],
+    # two feet 95 nm and 0.5 nm apart in distance, side by side where the circular trailing
+    # edge meets a flank: stopping the extra Newton runs early (when they come within a
+    # cell of the first foot) missed the closer one with other grid sizes
+    [20.606328061436887, 18.58666089489436, 52.90762454523905],
+    [22.495407170560817, 15.166834716309111, 20.343683616374474],
 ])
 
 
@@ -396,6 +401,13 @@ def test_feet_round_a_thin_edge_are_found(monkeypatch):
     monkeypatch.setattr(proj, "_TURN", np.inf)              # without the restarts round the edge
     without = project_points_to_surface(s, _TE_POINTS)
     assert (without.distance > ref.distance + 1e-6).sum() >= 3
+    monkeypatch.undo()                                      # the restarts back
+    for n_grid in (30_000, 120_000):                        # the same feet from other start grids
+        monkeypatch.setattr(proj, "_MAX_GRID_SAMPLES", n_grid)
+        proj._cache.clear()
+        other = project_points_to_surface(s, _TE_POINTS)
+        assert np.allclose(other.distance, ours.distance, rtol=0, atol=1e-12), n_grid
+    proj._cache.clear()
 
 
 # --------------------------------------------------------------------------- curves

@@ -73,7 +73,6 @@ _FINISH = 0.1               # Taylor-expanded steps keep their error under 0.1 t
 _INNER = 1                  # Newton iterations on the local Taylor model per evaluation
 _FOCAL = 0.5                # (1 - k1 d)(1 - k2 d) below this: near a centre of curvature
 _MIN_BATCH = 4096           # suspects are searched in blocks of at least this many
-_GIVE_UP = (-1, 1)          # an extra Newton run this many cells from a blocking foot, no closer: stopped
 _KEPT = 3                   # derivatives kept per foot for all points (S, S_u, S_v / C, C', C'')
 _TURN = 0.25                # distance x curvature above this: try feet moved round the edge
 _TURN_STEPS = (-3.0, -2.0, -1.0, -0.5, -0.25, 0.25, 0.5, 1.0, 2.0, 3.0)   # arc, in radii of curvature
@@ -501,7 +500,7 @@ class _StartGrid:
                 out |= np.isin(t, ends)
         return out
 
-    def close(self, a: np.ndarray, b: np.ndarray, window: tuple[int, int] = (-1, 2)) -> np.ndarray:
+    def close(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         """True where grid cells a and b (n_dirs, m) lie next to each other, pairwise: at
         most one cell apart on one side and two on the other (a cell is named by its lower
         corner), wrapping round a closed direction, and in the same piece."""
@@ -510,7 +509,7 @@ class _StartGrid:
             diff = a[axis] - b[axis]
             if closed:
                 diff = (diff + 1) % n - 1
-            close &= (diff >= window[0]) & (diff <= window[1])
+            close &= (diff >= -1) & (diff <= 2)
             close &= self.segments[axis][a[axis]] == self.segments[axis][b[axis]]
         return close
 
@@ -725,8 +724,7 @@ def _clip_step(model: _SurfaceModel, u, v, pieces, a, b, radius_u, radius_v):
     return model.u.step(u, a * scale, pieces[0]) - u, model.v.step(v, b * scale, pieces[1]) - v
 
 
-def _newton_surface(model: _SurfaceModel, P: np.ndarray, start: tuple, tol: float, max_iter: int, noise: float,
-                    give_up=None):
+def _newton_surface(model: _SurfaceModel, P: np.ndarray, start: tuple, tol: float, max_iter: int, noise: float):
     """Trust-region Newton (:func:`_model_step`) for the points P (3, m) from ``start``.
 
     A step is clipped to ``trust`` knot spans and kept only if the distance does not grow
@@ -734,10 +732,6 @@ def _newton_surface(model: _SurfaceModel, P: np.ndarray, start: tuple, tol: floa
     small enough (:func:`_finish_size`) is taken by Taylor expansion instead of a new
     evaluation; the point has converged when there the tangential residual and the next
     Newton step are both <= tol (mm).
-
-    ``give_up([u, v], dist, rows)``, if given, is asked after every step which of the points
-    ``rows`` (indices into P) to stop: those come back where they stand, not converged, with
-    focal -inf.
 
     Returns u, v, the derivatives [S, S_u, S_v, S_uu, S_uv, S_vv] at the foot (6, 3, m) (the
     second ones from the last evaluation), converged, focal (see :func:`_surface_step`).
@@ -794,20 +788,10 @@ def _newton_surface(model: _SurfaceModel, P: np.ndarray, start: tuple, tol: floa
         trust = np.where(accept, np.minimum(2.0 * trust, _TRUST_MAX), 0.25 * trust)
         if accept.all():
             u, v, su, sv, D, dist = ut, vt, sut, svt, Dt, dt
-        else:
-            for cur, new in zip((u, v, su, sv, dist), (ut, vt, sut, svt, dt)):
-                np.copyto(cur, new, where=accept)
-            np.copyto(D, Dt, where=accept)
-        if give_up is not None:
-            drop = give_up([u, v], dist, idx)
-            if drop.any():
-                k = idx[drop]
-                out_u[k], out_v[k], out_focal[k], out_D[:, :, k] = u[drop], v[drop], -np.inf, D[:, :, drop]
-                keep = ~drop
-                if not keep.any():
-                    break
-                idx, P, trust, dist = idx[keep], P[:, keep], trust[keep], dist[keep]
-                u, v, su, sv, D, pu, pv = u[keep], v[keep], su[keep], sv[keep], D[:, :, keep], pu[keep], pv[keep]
+            continue
+        for cur, new in zip((u, v, su, sv, dist), (ut, vt, sut, svt, dt)):
+            np.copyto(cur, new, where=accept)
+        np.copyto(D, Dt, where=accept)
     return out_u, out_v, out_D, converged, out_focal
 
 
@@ -842,10 +826,8 @@ def _curve_model_step(model: _CurveModel, t, piece, P, D, radius):
     return a, res, g11, focal
 
 
-def _newton_curve(model: _CurveModel, P: np.ndarray, start: tuple, tol: float, max_iter: int, noise: float,
-                  give_up=None):
-    """The 1D form of :func:`_newton_surface` for points P (dim, m): C'·(C - P) = 0
-    (``give_up([t], dist, rows)`` likewise).
+def _newton_curve(model: _CurveModel, P: np.ndarray, start: tuple, tol: float, max_iter: int, noise: float):
+    """The 1D form of :func:`_newton_surface` for points P (dim, m): C'·(C - P) = 0.
 
     Returns t, [C, C', C''] at the foot (3, dim, m), converged, focal.
     """
@@ -893,20 +875,10 @@ def _newton_curve(model: _CurveModel, P: np.ndarray, start: tuple, tol: float, m
         trust = np.where(accept, np.minimum(2.0 * trust, _TRUST_MAX), 0.25 * trust)
         if accept.all():
             t, span, D, dist = tt, spant, Dt, dnew
-        else:
-            for cur, new in zip((t, span, dist), (tt, spant, dnew)):
-                np.copyto(cur, new, where=accept)
-            np.copyto(D, Dt, where=accept)
-        if give_up is not None:
-            drop = give_up([t], dist, idx)
-            if drop.any():
-                k = idx[drop]
-                out_t[k], out_focal[k], out_D[:, :, k] = t[drop], -np.inf, D[:, :, drop]
-                keep = ~drop
-                if not keep.any():
-                    break
-                idx, P, trust, dist = idx[keep], P[:, keep], trust[keep], dist[keep]
-                t, span, D, piece = t[keep], span[keep], D[:, :, keep], piece[keep]
+            continue
+        for cur, new in zip((t, span, dist), (tt, spant, dnew)):
+            np.copyto(cur, new, where=accept)
+        np.copyto(D, Dt, where=accept)
     return out_t, out_D, converged, out_focal
 
 
@@ -1105,8 +1077,8 @@ def project_points_to_surface(
         model, grid = _cached(surface, _SurfaceModel)[0], None
     noise = _rounding_noise(model.scale, P)
 
-    def solve(Pc: np.ndarray, start: tuple, give_up=None):
-        uc, vc, D, cc, focal = _newton_surface(model, Pc, start, tol, max_iter, noise, give_up)
+    def solve(Pc: np.ndarray, start: tuple):
+        uc, vc, D, cc, focal = _newton_surface(model, Pc, start, tol, max_iter, noise)
         return [uc, vc], D, cc, focal
 
     if grid is not None:
@@ -1168,8 +1140,8 @@ def project_points_to_curve(
     grid = slot[0] if t0 is None and m else None
     noise = _rounding_noise(model.scale, P)
 
-    def solve(Pc: np.ndarray, start: tuple, give_up=None):
-        tc, D, cc, focal = _newton_curve(model, Pc, start, tol, max_iter, noise, give_up)
+    def solve(Pc: np.ndarray, start: tuple):
+        tc, D, cc, focal = _newton_curve(model, Pc, start, tol, max_iter, noise)
         return [tc], D, cc, focal
 
     if grid is not None:
@@ -1222,8 +1194,9 @@ def _samples_in_reach(grid: _StartGrid, P: np.ndarray, d: np.ndarray, workers: i
 @dataclass
 class _Feet:
     """The best feet found so far for m points: parameters (n_dirs, m), derivatives at the
-    foot (n_ders, dim, m), converged, focal ratio, distance, and the first start sample.
-    Only the first ``_KEPT`` derivatives are kept for all points (S, S_u, S_v: what the
+    foot (n_ders, dim, m), converged, focal ratio, distance, the first start sample, and
+    ``bend``: distance x largest curvature at the foot (near 1: P near a centre of
+    curvature, where feet may lie side by side). Only the first ``_KEPT`` derivatives are kept for all points (S, S_u, S_v: what the
     normals need); second derivatives are evaluated again where they are needed."""
 
     params: np.ndarray
@@ -1232,23 +1205,27 @@ class _Feet:
     focal: np.ndarray
     dist: np.ndarray
     k0: np.ndarray
+    bend: np.ndarray
 
     def take(self, rows: np.ndarray) -> _Feet:
         return _Feet(self.params[:, rows], self.ders[:, :, rows], self.conv[rows], self.focal[rows],
-                     self.dist[rows], self.k0[rows])
+                     self.dist[rows], self.k0[rows], self.bend[rows])
 
     def put(self, rows: np.ndarray | slice, other: _Feet) -> None:
         self.params[:, rows], self.ders[:, :, rows], self.conv[rows] = other.params, other.ders[:_KEPT], other.conv
-        self.focal[rows], self.dist[rows], self.k0[rows] = other.focal, other.dist, other.k0
+        self.focal[rows], self.dist[rows], self.k0[rows], self.bend[rows] = other.focal, other.dist, other.k0, other.bend
 
-    def update(self, rows: np.ndarray, params: list, ders: np.ndarray, conv, focal, dist, noise: float) -> None:
-        """Take the feet of a later Newton run for the points ``rows`` where they are closer."""
+    def update(self, rows: np.ndarray, run: tuple, dist: np.ndarray, turn, noise: float) -> None:
+        """Take the feet of a later Newton run (``solve``'s output) for the points ``rows``
+        where they are closer (``dist``)."""
+        params, ders, conv, focal = run
         win = dist < self.dist[rows] - noise
         w = rows[win]
         for a, b in zip(self.params, params):
             a[w] = b[win]
         self.ders[:, :, w] = ders[:_KEPT, :, win]
         self.conv[w], self.focal[w], self.dist[w] = conv[win], focal[win], dist[win]
+        self.bend[w] = dist[win] * turn(ders[:, :, win])[0]
 
 
 def _search(grid: _StartGrid, solve, start_at, turn, P: np.ndarray, noise: float):
@@ -1269,12 +1246,11 @@ def _search(grid: _StartGrid, solve, start_at, turn, P: np.ndarray, noise: float
     """
     m, dim = P.shape
     feet = _Feet(_shared((len(grid.sizes), m)), _shared((_KEPT, dim, m)), _shared((m,), bool), _shared((m,)),
-                 _shared((m,)), _shared((m,), np.intp))
-    suspect, bend = _shared((m,), bool), _shared((m,))
+                 _shared((m,)), _shared((m,), np.intp), _shared((m,)))
+    suspect = _shared((m,), bool)
 
     def first(s: int, e: int, workers: int) -> None:
-        block, suspect[s:e] = _first_feet(grid, solve, np.ascontiguousarray(P[s:e].T), noise, workers)
-        bend[s:e] = block.dist * turn(block.ders)[0]
+        block, suspect[s:e] = _first_feet(grid, solve, turn, np.ascontiguousarray(P[s:e].T), noise, workers)
         feet.put(slice(s, e), block)
 
     _for_each_block(m, first, shared=True)
@@ -1283,12 +1259,11 @@ def _search(grid: _StartGrid, solve, start_at, turn, P: np.ndarray, noise: float
         def more(s: int, e: int, workers: int) -> None:
             r = rows[s:e]
             sub = feet.take(r)
-            _more_starts(grid, solve, np.ascontiguousarray(P[r].T), sub, noise, workers)
+            _more_starts(grid, solve, turn, np.ascontiguousarray(P[r].T), sub, noise, workers)
             feet.put(r, sub)
-            bend[r] = sub.dist * turn(np.stack(start_at(list(sub.params))[-1]))[0]
 
         _for_each_block(rows.size, more, max(_MIN_BATCH, -(-rows.size // _THREADS)), shared=True)
-    rows = np.flatnonzero(bend > _TURN)
+    rows = np.flatnonzero(feet.bend > _TURN)
     if rows.size:
         sub = feet.take(rows)
         _turn_starts(solve, start_at, turn, np.ascontiguousarray(P[rows].T), sub, noise)
@@ -1296,7 +1271,7 @@ def _search(grid: _StartGrid, solve, start_at, turn, P: np.ndarray, noise: float
     return list(feet.params), feet.ders, feet.conv
 
 
-def _first_feet(grid: _StartGrid, solve, P: np.ndarray, noise: float, workers: int) -> tuple[_Feet, np.ndarray]:
+def _first_feet(grid: _StartGrid, solve, turn, P: np.ndarray, noise: float, workers: int) -> tuple[_Feet, np.ndarray]:
     """Newton from the nearest grid sample of each point P (dim, m); and which points are
     suspects, that is, could have a closer foot elsewhere.
 
@@ -1314,21 +1289,20 @@ def _first_feet(grid: _StartGrid, solve, P: np.ndarray, noise: float, workers: i
     corner = grid.flat_index(grid.param_cells(params))
     inside = ~grid.on_end(params)
     safe = inside & (focal >= _FOCAL) & (2.0 * d + grid.cell_cover[corner] < grid.cell_separation[corner])
-    return _Feet(np.stack(params), ders, conv, focal, d, k0), ~safe
+    return _Feet(np.stack(params), ders, conv, focal, d, k0, d * turn(ders)[0]), ~safe
 
 
-def _more_starts(grid: _StartGrid, solve, P: np.ndarray, feet: _Feet, noise: float, workers: int) -> None:
+def _more_starts(grid: _StartGrid, solve, turn, P: np.ndarray, feet: _Feet, noise: float, workers: int) -> None:
     """Newton again for the suspect points P (dim, m) from other samples in reach; the
     closest root wins (``feet`` updated in place).
 
     Of the ``_N_WIDE`` nearest samples of a point, the nearest one closer than d + cover,
     not tried yet and not next to an interior foot already found starts Newton again, up
-    to ``_MAX_STARTS`` more times per point. A run is given up as soon as it stands within
-    a cell (``_GIVE_UP``) of the point's best foot so far, that foot blocks, and the run is
-    no closer than it: it is on its way to that foot again, as ~98 % of these runs on a
-    blade's thin edges are, at 10-15 Newton steps each (:func:`_give_up_near`). A second
-    foot right beside the first is the business of :func:`_turn_starts`, which runs
-    after. The candidates are kept as a flat list of
+    to ``_MAX_STARTS`` more times per point. (Most of these runs, ~98 % on a blade's thin
+    edges, end at the foot already known. Stopping a run once it comes within a cell of
+    that foot halves their cost but was seen to miss a foot 95 nm closer beside it, where
+    a circular edge meets a flank: they run to the end.) The candidates are kept as a
+    flat list of
     (point, sample) pairs, sorted by point and then by distance: a point has ~8 of them
     on average but up to 64, so a dense table would be mostly padding.
     """
@@ -1359,7 +1333,8 @@ def _more_starts(grid: _StartGrid, solve, P: np.ndarray, feet: _Feet, noise: flo
         # where tangent planes mislead)
         j = _first_least(np.where(fresh, promise if attempt % 2 == 0 else dk, np.inf), row, starts)
         loc = row[j]
-        p2, D2, c2, f2 = solve(P[:, loc], grid.start(k[j]), _give_up_near(grid, feet, loc, noise) if _GIVE_UP else None)
+        run = solve(P[:, loc], grid.start(k[j]))
+        p2, D2, c2, f2 = run
         d2 = np.sqrt(_dot(D2[0] - P[:, loc], D2[0] - P[:, loc]))
         blocked[j] = True
         slot[loc] = np.arange(loc.size)
@@ -1368,17 +1343,7 @@ def _more_starts(grid: _StartGrid, solve, P: np.ndarray, feet: _Feet, noise: flo
         found = ~grid.on_end(p2) & (f2 >= _FOCAL)
         blocked[pairs] |= found[at] & free[pairs] & grid.close(cells[:, pairs], grid.param_cells(p2)[:, at])
         slot[loc] = -1
-        feet.update(loc, p2, D2, c2, f2, d2, noise)
-
-
-def _give_up_near(grid: _StartGrid, feet: _Feet, loc: np.ndarray, noise: float):
-    """The ``give_up`` test of :func:`_more_starts` for Newton runs of the points ``loc``."""
-    def give_up(params: list[np.ndarray], dist: np.ndarray, run: np.ndarray) -> np.ndarray:
-        i = loc[run]
-        blocks = ~grid.on_end([p[i] for p in feet.params]) & (feet.focal[i] >= _FOCAL)
-        near = grid.close(grid.param_cells(params), grid.param_cells([p[i] for p in feet.params]), _GIVE_UP)
-        return near & blocks & (dist >= feet.dist[i] - noise)
-    return give_up
+        feet.update(loc, run, d2, turn, noise)
 
 
 def _first_least(key: np.ndarray, row: np.ndarray, starts: np.ndarray) -> np.ndarray:
@@ -1406,7 +1371,7 @@ def _turn_starts(solve, start_at, turn, P: np.ndarray, feet: _Feet, noise: float
     p2, D2, c2, f2 = solve(Pn, start_at(params))
     d2 = np.sqrt(_dot(D2[0] - Pn, D2[0] - Pn))
     best = np.argmin(d2.reshape(n, m), axis=0) * m + np.arange(m)   # closest of the moves per point
-    feet.update(np.arange(m), [p[best] for p in p2], D2[:, :, best], c2[best], f2[best], d2[best], noise)
+    feet.update(np.arange(m), ([p[best] for p in p2], D2[:, :, best], c2[best], f2[best]), d2[best], turn, noise)
 
 
 def _surface_turn(D: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
