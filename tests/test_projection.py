@@ -410,6 +410,38 @@ def test_feet_round_a_thin_edge_are_found(monkeypatch):
     proj._cache.clear()
 
 
+def test_forked_blocks_threads_and_one_process_agree(monkeypatch):
+    """The blocks give the same feet whether they run here, in forked children (shared
+    memory) or on threads; a child that fails has its blocks rerun by the parent."""
+    s = blade_surface()
+    pts = _near_blade_points(s, 30_000, np.random.default_rng(18))
+    monkeypatch.setattr(proj, "_CHUNK", 4000)
+    monkeypatch.setattr(proj, "_MIN_BATCH", 500)
+    runs = {}
+    for name, threads, fork in (("one", 1, False), ("forked", 2, True), ("threads", 2, False)):
+        monkeypatch.setattr(proj, "_THREADS", threads)
+        monkeypatch.setattr(proj, "_can_fork", lambda fork=fork: fork)
+        runs[name] = project_points_to_surface(s, pts)
+    monkeypatch.undo()
+    monkeypatch.setenv("BLADERECON_PROCESSES", "0")
+    assert not proj._can_fork()
+    for name in ("forked", "threads"):
+        for field in ("u", "v", "distance", "signed"):
+            assert np.array_equal(getattr(runs[name], field), getattr(runs["one"], field)), (name, field)
+    parent = os.getpid()
+    out = proj._shared((12,))
+
+    def work(s0: int, e0: int, workers: int) -> None:
+        if os.getpid() != parent:
+            raise RuntimeError("a child that fails")
+        out[s0:e0] = np.arange(s0, e0)
+
+    monkeypatch.setattr(proj, "_THREADS", 3)
+    monkeypatch.setattr(proj, "_can_fork", lambda: True)
+    proj._for_each_block(12, work, chunk=2, shared=True)
+    assert np.array_equal(out, np.arange(12))
+
+
 # --------------------------------------------------------------------------- curves
 def _clamped_curve() -> BSplineCurve:
     rng = np.random.default_rng(9)

@@ -215,13 +215,22 @@ def _horner(c: np.ndarray, t: np.ndarray, order: int) -> list[np.ndarray]:
     cheapest). Simultaneous Horner scheme: one pass gives all three.
     """
     deg = c.shape[0] - 1
-    b, d1, d2 = c[deg], None, None
-    for k in range(deg - 1, -1, -1):
+    b, d1, d2 = c[deg].copy(), None, None
+    for k in range(deg - 1, -1, -1):          # in place: fewer temporaries is faster here
         if order >= 2 and d1 is not None:
-            d2 = d1 if d2 is None else d2 * t + d1
+            if d2 is None:
+                d2 = d1.copy()
+            else:
+                d2 *= t
+                d2 += d1
         if order >= 1:
-            d1 = b if d1 is None else d1 * t + b
-        b = b * t + c[k]
+            if d1 is None:
+                d1 = b.copy()
+            else:
+                d1 *= t
+                d1 += b
+        b *= t
+        b += c[k]
     zero = np.zeros_like(b)
     return [b, d1 if d1 is not None else zero, d2 if d2 is not None else zero][: order + 1]
 
@@ -304,8 +313,10 @@ class _CurveModel:
 def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Row-wise dot product of (dim, m) arrays."""
     out = a[0] * b[0]
-    for k in range(1, a.shape[0]):
-        out += a[k] * b[k]
+    if a.shape[0] > 1:
+        tmp = np.empty_like(out)
+        for k in range(1, a.shape[0]):
+            out += np.multiply(a[k], b[k], out=tmp)
     return out
 
 
@@ -694,9 +705,20 @@ def _smallest_eigenvalue(metric: tuple) -> np.ndarray:
 def _taylor(D: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """S, S_u, S_v at (u + a, v + b) from the derivatives D (6, 3, m) at (u, v), to second order."""
     S, Su, Sv, Suu, Suv, Svv = D
-    Su2 = Su + (Suu * a + Suv * b)
-    Sv2 = Sv + (Suv * a + Svv * b)
-    S2 = S + 0.5 * ((Su + Su2) * a + (Sv + Sv2) * b)
+    tmp = Suv * b
+    Su2 = Suu * a
+    Su2 += tmp
+    Su2 += Su
+    Sv2 = Svv * b
+    np.multiply(Suv, a, out=tmp)
+    Sv2 += tmp
+    Sv2 += Sv
+    S2 = Su + Su2
+    S2 *= 0.5 * a
+    np.add(Sv, Sv2, out=tmp)
+    tmp *= 0.5 * b
+    S2 += tmp
+    S2 += S
     return S2, Su2, Sv2
 
 
@@ -978,13 +1000,14 @@ def _shared(shape: tuple[int, ...], dtype=float) -> np.ndarray:
 
 
 def _spatial_order(P: np.ndarray) -> np.ndarray:
-    """A permutation that visits the points voxel by voxel (64 voxels along the longest
+    """A permutation that visits the points voxel by voxel (32 voxels along the longest
     side of their box): neighbouring points then share k-d tree branches and patches,
-    which makes the searches about a quarter faster than in scan or random order."""
+    which makes the searches about a quarter faster than in scan or random order. The
+    voxel index fits 15 bits, so numpy sorts it by radix (twice as fast as a 64-bit key)."""
     lo = P.min(axis=0)
-    size = max(float((P.max(axis=0) - lo).max()) / 64.0, 1e-300)
-    key = np.minimum((P - lo) / size, 64.0).astype(np.int64)
-    return np.argsort((key[:, 0] * 65 + key[:, 1]) * 65 + key[:, 2])
+    size = max(float((P.max(axis=0) - lo).max()) / 31.999, 1e-300)
+    key = np.minimum((P - lo) / size, 31.0).astype(np.int16)
+    return np.argsort((key[:, 0] * 32 + key[:, 1]) * 32 + key[:, 2], kind="stable")
 
 
 def _inverse(order: np.ndarray) -> np.ndarray:
