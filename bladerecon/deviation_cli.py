@@ -27,6 +27,9 @@ def add_parser(sub) -> None:
     d.add_argument("--nominal", required=True, help="nominal blade: STEP/IGES/BREP/FCStd")
     d.add_argument("--align", choices=("none", "rigid", "translate", "rotate-z"), default="none",
                    help="best fit before comparing: none (default), rigid, translate, or rotate-z (about the z axis)")
+    d.add_argument("--robust", action="store_true",
+                   help="with --align: a robust best fit (Tukey biweight) that a worn or damaged zone does not "
+                        "pull; the points it weighted out are counted in the summary")
     d.add_argument("--tolerance", type=float, default=0.03, metavar="MM",
                    help="profile tolerance ±MM for within_tolerance_pct (default 0.03)")
     d.add_argument("--csv", metavar="FILE", help="write x,y,z,deviation,nx,ny,nz,face per point")
@@ -46,6 +49,8 @@ def _say(args, msg: str) -> None:
 def _check_outputs(args) -> None:
     if args.aligned and args.align == "none":
         raise BladeReconError("--aligned writes the best-fitted input: add --align rigid|translate|rotate-z")
+    if args.robust and args.align == "none":
+        raise BladeReconError("--robust is a kind of best fit: add --align rigid|translate|rotate-z")
     for path, what in ((args.csv, "--csv"), (args.report, "--report"), (args.aligned, "--aligned")):
         if path:
             parent = os.path.dirname(os.path.abspath(path)) or "."
@@ -75,7 +80,7 @@ def run_deviation(args: argparse.Namespace) -> dict:
     t_read = time.perf_counter()
     if args.align != "none":
         _say(args, f"best fit ({args.align})")
-    res = measure_deviation(points, nominal, args.align, args.tolerance, source=args.measured)
+    res = measure_deviation(points, nominal, args.align, args.tolerance, source=args.measured, robust=args.robust)
     s = res.stats
     _say(args, f"deviation max {s['max'] * 1000:.1f} µm, min {s['min'] * 1000:.1f} µm, "
                f"{s['within_tolerance_pct']:.1f} % within ±{args.tolerance} mm")

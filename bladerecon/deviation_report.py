@@ -88,16 +88,24 @@ def _plot_histogram(path: str, d_um: np.ndarray, tol_um: float) -> None:
 
 def _section_groups(section, names, v: np.ndarray, n: int) -> list[tuple[str, np.ndarray]]:
     """Point indices per section: the file's labels, else 6 thin slices across the span
-    parameter v of the nominal (points within 1 % of the span of each slice's v)."""
+    parameter v of the nominal (2 % of the span wide), each moved within its sixth of the
+    span to where the points are densest - so that unlabelled points measured section by
+    section are sliced at their sections, not between them."""
     if section is not None:
         return [(str(names[k]), np.flatnonzero(section == k)) for k in range(len(names))]
     ok = np.isfinite(v)
     if not ok.any():
         return []
     lo, hi = float(np.nanmin(v)), float(np.nanmax(v))
-    half = 0.01 * max(hi - lo, 1e-12)
-    centres = lo + (np.arange(6) + 0.5) / 6 * (hi - lo)
-    return [(f"slice v = {c:.2f}", np.flatnonzero(ok & (np.abs(v - c) <= half))) for c in centres]
+    counts, edges = np.histogram(v[ok], bins=300, range=(lo, max(hi, lo + 1e-12)))
+    groups = []
+    for part in np.array_split(np.arange(300), 6):
+        b = part[np.argmax(counts[part])]
+        c = 0.5 * (edges[b] + edges[b + 1])
+        idx = np.flatnonzero(ok & (np.abs(v - c) <= 0.01 * max(hi - lo, 1e-12)))
+        if idx.size:
+            groups.append((f"slice v = {c:.2f}", idx))
+    return groups
 
 
 def _plot_needles(path: str, groups, P, foot, normal, d_mm: np.ndarray, tol_um: float) -> None:
@@ -105,6 +113,8 @@ def _plot_needles(path: str, groups, P, foot, normal, d_mm: np.ndarray, tol_um: 
     plt = _plt()
     groups = [(name, idx) for name, idx in groups if idx.size]
     n = len(groups)
+    if n == 0:
+        return
     cols = min(3, n)
     rows = (n + cols - 1) // cols
     fig, axes = plt.subplots(rows, cols, figsize=(5 * cols, 3.6 * rows), dpi=100, squeeze=False)
@@ -256,6 +266,9 @@ def _html(summary: dict, images: list[tuple[str, str]]) -> str:
     if "rms_before" in a:
         align += (f"<tr><th>RMS normal residual before → after (µm)</th>"
                   f"<td>{a['rms_before'] * 1000:.3f} → {a['rms_after'] * 1000:.3f} ({a['iterations']} iterations)</td></tr>")
+    if a.get("robust"):
+        align += (f"<tr><th>robust fit (Tukey biweight)</th><td>{a['points_weighted_out']} points weighted out "
+                  f"(|residual| beyond {a['robust_cutoff_mm'] * 1000:.3f} µm from the median)</td></tr>")
     nominal = summary["nominal"]
     sections = _sections_html(summary.get("sections"))
     figs = "\n".join(f'<figure><img src="{f}" alt="{html.escape(c)}"><figcaption>{html.escape(c)}</figcaption></figure>'

@@ -265,15 +265,16 @@ def check_units(points: np.ndarray, nominal: Nominal, source: str = "the points"
 
 # --------------------------------------------------------------------------- the run
 def measure_deviation(points: np.ndarray, nominal: Nominal, align: str = "none",
-                      tolerance: float = 0.03, source: str = "the points") -> DeviationResult:
-    """Align (``none|rigid|translate|rotate-z``), then measure; stats as in ``deviation --json``."""
+                      tolerance: float = 0.03, source: str = "the points", robust: bool = False) -> DeviationResult:
+    """Align (``none|rigid|translate|rotate-z``; ``robust``: Tukey-biweight fit), then
+    measure; stats as in ``deviation --json``."""
     t0 = time.perf_counter()
     P = np.asarray(points, float)
     check_units(P, nominal, source)
     t1 = time.perf_counter()
     alignment = None
     if align != "none":
-        alignment = best_fit(P, nominal.projector(), align)
+        alignment = best_fit(P, nominal.projector(), align, robust=robust)
         P = apply_transform(P, alignment.matrix)
     t2 = time.perf_counter()
     dev = nominal.measure(P)
