@@ -432,6 +432,8 @@ class DeviationAnalysis(_Feature):
         ("App::PropertyLink", "Nominal", "Input", "nominal blade: any object with a shape", 0),
         ("App::PropertyLink", "Surface", "Input", "optional BladeSurface to colour by its deviation", 0),
         ("App::PropertyEnumeration", "Alignment", "Input", "best fit before comparing", 0),
+        ("App::PropertyBool", "RobustFit", "Input",
+         "robust best fit (Tukey biweight): a worn or damaged zone does not pull the alignment", 0),
         ("App::PropertyFloat", "Tolerance", "Input", "profile tolerance ±mm", 0),
         ("App::PropertyInteger", "PointCount", "Statistics", "points compared", 1),
         ("App::PropertyFloat", "Max", "Statistics", "largest signed deviation (mm)", 1),
@@ -446,6 +448,8 @@ class DeviationAnalysis(_Feature):
         ("App::PropertyMatrix", "AlignmentMatrix", "Statistics", "rigid transform applied to the measured data", 1),
         ("App::PropertyFloat", "RotationDeg", "Statistics", "rotation of the alignment (degrees)", 1),
         ("App::PropertyVector", "TranslationMm", "Statistics", "translation of the alignment (mm)", 1),
+        ("App::PropertyInteger", "PointsWeightedOut", "Statistics",
+         "robust fit: points whose residual weighed nothing (worn, damaged, outliers)", 1),
         ("App::PropertyFloatList", "Deviations", "Data", "signed deviation per measured point (mm)", 2),
         ("App::PropertyVectorList", "AlignedPoints", "Data", "measured points after alignment (mm)", 2),
         ("App::PropertyFloatList", "SurfaceDeviations", "Data", "signed deviation per surface grid vertex (mm)", 2),
@@ -486,7 +490,8 @@ class DeviationAnalysis(_Feature):
                 res, grid_dev = _measure_together(ps.points, grid, nominal, obj.Tolerance, ps.source)
                 progress.step()
             else:
-                res = measure_deviation(ps.points, nominal, obj.Alignment, obj.Tolerance, source=ps.source)
+                res = measure_deviation(ps.points, nominal, obj.Alignment, obj.Tolerance, source=ps.source,
+                                        robust=bool(obj.RobustFit))
                 progress.step()
                 if len(grid):
                     grid = apply_transform(grid, res.alignment.matrix)
@@ -502,6 +507,8 @@ class DeviationAnalysis(_Feature):
         obj.AlignmentMatrix = FreeCAD.Matrix(*np.asarray(matrix, float).ravel().tolist())
         obj.RotationDeg = float(res.alignment.rotation_deg) if res.alignment is not None else 0.0
         obj.TranslationMm = FreeCAD.Vector(*(matrix[:3, 3]))
+        al = res.alignment
+        obj.PointsWeightedOut = int((al.weights == 0).sum()) if al is not None and al.weights is not None else 0
         obj.Deviations = [float(x) for x in res.deviation.signed]
         obj.AlignedPoints = _vectors(res.points)
         obj.SurfaceDeviations = [float(x) for x in grid_dev]
@@ -576,7 +583,8 @@ def write_analysis_report(obj: Any, folder: str) -> dict:
     if obj.Nominal is None:
         raise BladeReconError(f"{obj.Label}: no nominal linked: set its 'Nominal' property")
     nominal = Nominal(obj.Nominal.Shape, obj.Nominal.Label)
-    res = measure_deviation(ps.points, nominal, obj.Alignment, obj.Tolerance, source=ps.source)
+    res = measure_deviation(ps.points, nominal, obj.Alignment, obj.Tolerance, source=ps.source,
+                            robust=bool(obj.RobustFit))
     s = res.stats
     al = res.alignment
     summary = {key: s[key] for key in ("points", "max", "min", "mean", "std", "rms", "within_tolerance_pct",
