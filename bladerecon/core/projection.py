@@ -59,7 +59,7 @@ __all__ = [
 ]
 
 _CHUNK = 16_384             # points per block: cache-sized, bounds memory for a million points
-_THREADS = min(4, os.cpu_count() or 1)   # blocks run in parallel (numpy releases the GIL)
+_THREADS = min(4, os.cpu_count() or 1)   # blocks run in parallel: forked processes, or threads
 _WINDOW = 2                 # grid steps within which samples count as the same part of the spline
 _N_FEW = 16                 # nearest samples looked at for a point that may have a closer foot elsewhere
 _N_WIDE = 64                # ... where the first 16 are all within its reach
@@ -1085,8 +1085,8 @@ def project_points_to_surface(
 
     ``tol`` (mm) bounds both the tangential residuals |S_u·(S-P)|/|S_u|, |S_v·(S-P)|/|S_v|
     (the orthogonality cosines times the distance) and the next Newton step of the foot.
-    Points are processed in blocks of ``_CHUNK`` on up to ``_THREADS`` threads, so a
-    million points fit in memory.
+    Points are processed in blocks of ``_CHUNK`` in parallel (``_THREADS`` processes or
+    threads, :func:`_for_each_block`), so a million points fit in memory.
     """
     P = _check_points(points, 3)
     m = P.shape[0]
@@ -1255,10 +1255,10 @@ def _search(grid: _StartGrid, solve, start_at, turn, P: np.ndarray, noise: float
     """Global search for the closest feet of the points P (m, dim) (seed 001 eq. 11).
 
     1. Newton from the nearest grid sample of every point (:func:`_first_feet`), in blocks
-       of ``_CHUNK`` on the threads;
+       of ``_CHUNK`` in parallel;
     2. the points that could have a closer foot elsewhere (suspects) all together: Newton
        from other samples in reach (:func:`_more_starts`), in as few blocks as there are
-       threads, so that their many short Newton runs cost few numpy calls;
+       workers, so that their many short Newton runs cost few numpy calls;
     3. points farther from their foot than ``_TURN`` times the local radius of curvature
        (off a thin edge): Newton from the foot moved round the edge (:func:`_turn_starts`).
 
