@@ -959,11 +959,15 @@ def _for_each_block(m: int, work, chunk: int = _CHUNK, shared: bool = False) -> 
 
 
 def _can_fork() -> bool:
-    """A fork is safe in a single-threaded process on Linux without a Qt application (in
-    FreeCAD's GUI threads are used instead); ``BLADERECON_PROCESSES=0`` turns it off."""
+    """A fork is safe in a single-threaded process on Linux without a GUI toolkit loaded (in
+    FreeCAD's GUI, whose Qt threads Python does not see, threads are used instead; only the
+    module names are looked at, nothing is imported); ``BLADERECON_PROCESSES=0`` turns it off."""
     return (sys.platform.startswith("linux") and hasattr(os, "fork") and threading.active_count() == 1
             and os.environ.get("BLADERECON_PROCESSES", "1") != "0"
-            and not any(name in sys.modules for name in ("PySide2.QtCore", "PySide6.QtCore", "PyQt5.QtCore")))
+            and not any(name in sys.modules for name in _GUI_MODULES))
+
+
+_GUI_MODULES = ("FreeCADGui", "PySide", "PySide2", "PySide6", "PyQt5", "PyQt6", "tkinter")
 
 
 def _fork_blocks(groups: list[list[tuple[int, int]]], work) -> None:
