@@ -1282,6 +1282,10 @@ def _search(grid: _StartGrid, solve, start_at, turn, P: np.ndarray, noise: float
 
     _for_each_block(m, first, shared=True)
     rows = np.flatnonzero(suspect)
+    # runs of 1024 suspects dealt to the workers in turn: suspects crowd round the thin
+    # edges, and contiguous halves of them can hold twice the work of each other
+    runs = np.arange(rows.size) // 1024
+    rows = np.concatenate([rows[runs % _THREADS == k] for k in range(_THREADS)])
     if rows.size and grid.size > 1:
         def more(s: int, e: int, workers: int) -> None:
             r = rows[s:e]
