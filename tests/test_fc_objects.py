@@ -91,8 +91,8 @@ def test_robust_fit_equals_the_cli(chain):
     """RobustFit on a rigid best fit: the same transform and statistics as
     ``deviation --align rigid --robust``; PointsWeightedOut as its JSON says."""
     doc, points, _, _, nominal, _ = chain
-    robust = bro.make_deviation_analysis(doc, points, nominal, None, alignment="rigid", name="RobustAnalysis")
-    robust.RobustFit = True
+    robust = bro.make_deviation_analysis(doc, points, nominal, None, alignment="rigid", name="RobustAnalysis",
+                                         robust=True)
     doc.recompute()
     assert robust.Status == "ok", robust.Status
     proc = subprocess.run([sys.executable, "-m", "bladerecon", "deviation", str(PLAN), "--nominal", str(NOMINAL),

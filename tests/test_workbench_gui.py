@@ -191,6 +191,19 @@ try:
     shot("deviation_points.png")
     commands.show_deviation_map(analysis, None)
     result["map_off"] = {{"analysis_visible": analysis.ViewObject.Visibility, "surface_visible": surface.ViewObject.Visibility}}
+    from bladerecon.gui.task_panels import ComparePanel
+    cpanel = ComparePanel(points, nominal, surface)
+    robust_at_none = cpanel.form.robust.isEnabled()
+    cpanel.form.alignment.setCurrentText("rigid")
+    cpanel.form.robust.setChecked(True)
+    opts = cpanel.options()
+    fitted = commands.compare_with_nominal(points, nominal, None, opts["alignment"], opts["tolerance"],
+                                           robust=opts["robust"])
+    result["robust"] = {{"enabled_at_none": robust_at_none, "option": opts["robust"], "status": fitted.Status,
+                        "property": fitted.RobustFit, "weighted_out": fitted.PointsWeightedOut,
+                        "rotation": fitted.RotationDeg}}
+    doc.removeObject(fitted.Name)
+    nominal.ViewObject.Visibility = False
 
     points.ViewObject.Visibility = False
     from bladerecon.gui.task_panels import SurfaceAnalysisPanel
@@ -418,6 +431,11 @@ def test_deviation_colours_follow_the_deviation(gui_run):
     assert c["spearman"] > 0.99
     assert c["dev_range"][0] < 0 < c["dev_range"][1]
     assert result["map_off"] == {"analysis_visible": False, "surface_visible": True}
+    # the Compare dialog's robust box: off without an alignment; with rigid it reaches the object,
+    # which fits the (unmoved, 2 µm noise) sample points with the robust fit and drops none
+    rb = result["robust"]
+    assert rb["enabled_at_none"] is False and rb["option"] is True and rb["property"] is True
+    assert rb["status"] == "ok" and rb["weighted_out"] < 0.01 * result["stats"]["points"] and rb["rotation"] < 0.01
     # the toolbar command: enabled with the analysis selected; off (surface shown), then on again
     assert result["map_toggle"] == [True, [False, True], [True, False]]
 

@@ -542,12 +542,13 @@ def _measure_together(points: np.ndarray, extra: np.ndarray, nominal, tolerance:
 
 
 def make_deviation_analysis(doc: Any, measured: Any, nominal: Any, surface: Any = None, alignment: str = "none",
-                            tolerance: float = 0.03, name: str = "DeviationAnalysis") -> Any:
+                            tolerance: float = 0.03, name: str = "DeviationAnalysis", robust: bool = False) -> Any:
     obj = doc.addObject("App::FeaturePython", name)
     DeviationAnalysis(obj)
     obj.Label = "Deviation analysis"
     obj.Measured, obj.Nominal, obj.Surface = measured, nominal, surface
     obj.Alignment = alignment
+    obj.RobustFit = bool(robust)
     obj.Tolerance = float(tolerance)
     _attach_view(obj, "DeviationAnalysis")
     return obj

@@ -164,12 +164,14 @@ def reconstruct_surface(points_obj: Any, method: str = "auto", tolerance: float 
 
 
 def compare_with_nominal(measured: Any, nominal: Any, surface: Any = None, alignment: str = "none",
-                         tolerance: float = 0.03) -> Any:
-    """Add a DeviationAnalysis of ``measured`` (and ``surface``) against ``nominal``; shows its colour map."""
+                         tolerance: float = 0.03, robust: bool = False) -> Any:
+    """Add a DeviationAnalysis of ``measured`` (and ``surface``) against ``nominal``; shows its
+    colour map. ``robust``: Tukey-biweight best fit (with an alignment)."""
     doc = measured.Document
     obj = _run(doc, "Compare with nominal",
                [f"_br_deviation = bro.make_deviation_analysis(App.getDocument({doc.Name!r}), {_ref(measured)}, "
-                f"{_ref(nominal)}, {_ref(surface)}, alignment={alignment!r}, tolerance={float(tolerance)!r})"],
+                f"{_ref(nominal)}, {_ref(surface)}, alignment={alignment!r}, tolerance={float(tolerance)!r}, "
+                f"robust={bool(robust)!r})"],
                "_br_deviation")
     if obj is not None and obj.Status == "ok" and FreeCAD.GuiUp:
         _view_step(doc, "Hide the nominal", [f"{_ref(nominal)}.ViewObject.Visibility = False"])

@@ -72,10 +72,16 @@ class ComparePanel(_Panel):
                                  f"Surface: {surface.Label if surface is not None else '(none)'}")
         self.form.useSurface.setEnabled(surface is not None)
         self.form.useSurface.setChecked(surface is not None)
+        self.form.alignment.currentTextChanged.connect(self._robust_only_with_a_fit)
+        self._robust_only_with_a_fit(self.form.alignment.currentText())
+
+    def _robust_only_with_a_fit(self, mode: str) -> None:
+        self.form.robust.setEnabled(mode != "none")
 
     def options(self) -> dict:
         return {"surface": self.surface if self.form.useSurface.isChecked() else None,
-                "alignment": self.form.alignment.currentText(), "tolerance": self.form.tolerance.value()}
+                "alignment": self.form.alignment.currentText(), "tolerance": self.form.tolerance.value(),
+                "robust": self.form.robust.isEnabled() and self.form.robust.isChecked()}
 
     def run(self, **options: Any) -> Any:
         return commands.compare_with_nominal(self.measured, self.nominal, **options)
