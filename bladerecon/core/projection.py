@@ -68,7 +68,8 @@ _SAMPLES_PER_SPAN = 6       # start grid density on a span of median length
 _MAX_SAMPLES_PER_SPAN = 256
 _MAX_GRID_SAMPLES = 60_000     # more samples give closer starts but cost more to build than they save
 _MAX_TURN_PER_SAMPLE = np.radians(20.0)   # tight edges get a sample every 20 degrees
-_TRUST_MAX = 2.0            # Newton steps are clipped to at most two knot spans
+_TRUST_MAX = 8.0            # Newton steps are clipped to at most eight knot spans
+_TRUST_START = 4.0          # ... and to four at first
 _FINISH = 0.1               # Taylor-expanded steps keep their error under 0.1 tol
 _INNER = 1                  # Newton iterations on the local Taylor model per evaluation
 _FOCAL = 0.5                # (1 - k1 d)(1 - k2 d) below this: near a centre of curvature
@@ -766,7 +767,7 @@ def _newton_surface(model: _SurfaceModel, P: np.ndarray, start: tuple, tol: floa
     out_D = np.empty((6, 3, m))
     converged = np.zeros(m, dtype=bool)
     idx = np.arange(m)
-    trust = np.ones(m)
+    trust = np.full(m, _TRUST_START)
     dist = np.sqrt(_dot(D[0] - P, D[0] - P))
     for it in range(max_iter + 1):
         a, b, res, metric, focal = _model_step(
@@ -860,7 +861,7 @@ def _newton_curve(model: _CurveModel, P: np.ndarray, start: tuple, tol: float, m
     out_t, out_D, out_focal = np.empty(m), np.empty((3, dim, m)), np.empty(m)
     converged = np.zeros(m, dtype=bool)
     idx = np.arange(m)
-    trust = np.ones(m)
+    trust = np.full(m, _TRUST_START)
     dist = np.sqrt(_dot(D[0] - P, D[0] - P))
     for it in range(max_iter + 1):
         a, res, g11, focal = _curve_model_step(model, t, piece, P, D, trust * model.t.lengths[span])
