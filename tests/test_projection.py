@@ -410,6 +410,49 @@ def test_feet_round_a_thin_edge_are_found(monkeypatch):
     proj._cache.clear()
 
 
+def _nominal():
+    from bladerecon.core.sample_blade import SampleBlade, nominal_surface
+
+    return nominal_surface(SampleBlade())
+
+
+@pytest.mark.parametrize("make", [_nominal, blade_surface, torus_surface, creased_surface])
+def test_strip_bound_holds_inside_the_cells_round_a_sample(make):
+    """The thin covers of the start grid (long cells round a tight nose): every surface point
+    in the cells round a sample is at least ``strip_gap`` from any point, checked on surface
+    points at random inside random cells and on points off them (periodic, clamped and
+    creased directions)."""
+    s = make()
+    proj._cache.clear()
+    _, grid = proj._surface_grid(s)
+    assert grid.strips is not None
+    rng = np.random.default_rng(41)
+    n = 100_000
+    k = rng.integers(0, grid.size, n)
+    cells = grid.sample_cells(k)
+    feet = []
+    for axis, (g, size, closed, lo, hi) in enumerate(zip(grid.params, grid.sizes, grid.periodic,
+                                                        (s.u_knots[0], s.v_knots[0]), (s.u_knots[-1], s.v_knots[-1]))):
+        step = rng.choice([-1, 1], n)
+        j = cells[axis] + step
+        if closed:
+            other = g[j % size] + (hi - lo) * (j // size)
+        else:
+            other = np.where((j >= 0) & (j < size), g[np.clip(j, 0, size - 1)], g[cells[axis]])
+        feet.append(g[cells[axis]] + rng.random(n) * (other - g[cells[axis]]))
+    S = evaluate_surface(s, *feet)
+    P = S + rng.normal(size=(n, 3)) * rng.choice([0.01, 0.3, 2.0], n)[:, None]
+    bound = grid.strip_gap(np.ascontiguousarray(P.T), k)
+    assert np.all(bound <= np.linalg.norm(P - S, axis=1) + 1e-12)
+    # where the cells are long (round the nominal's tight edges) it is tighter than the ball
+    # of cover round the sample
+    long = grid.strips.reshape(4, -1).min(axis=0)[k] < 0.25 * grid.cover[k]
+    iso = np.linalg.norm(P - grid.tree.data[k], axis=1) - grid.cover[k]
+    if make is _nominal:
+        assert long.sum() > 1000 and np.mean(bound[long] > iso[long]) > 0.5
+    proj._cache.clear()
+
+
 def test_forked_blocks_threads_and_one_process_agree(monkeypatch):
     """The blocks give the same feet whether they run here, in forked children (shared
     memory) or on threads; a child that fails has its blocks rerun by the parent."""

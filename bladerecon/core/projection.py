@@ -321,6 +321,15 @@ def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return out
 
 
+def _segment_distance(P: np.ndarray, A: np.ndarray, B: np.ndarray) -> np.ndarray:
+    """Distance from points P to the segments A -> B, all (3, m), mm."""
+    AB = B - A
+    AP = P - A
+    t = _dot(AP, AB) / np.maximum(_dot(AB, AB), 1e-300)
+    AP -= np.minimum(np.maximum(t, 0.0), 1.0) * AB
+    return np.sqrt(_dot(AP, AP))
+
+
 # --------------------------------------------------------------------------- start grids
 def _sample_parameters(d: _SpanPolynomials, counts: np.ndarray) -> np.ndarray:
     """``counts[s]`` equally spaced parameters in span s (and the end of a clamped domain)."""
@@ -554,7 +563,105 @@ class _SurfaceGrid(_StartGrid):
             uu, vv, su, sv, ders = model.evaluate(UU.ravel(), VV.ravel(), 2, pieces)
         self.state = (uu, vv, su, sv, np.stack(ders).reshape(18, -1))
         self._set_axes(ders[0], np.cross(ders[1], ders[2], axis=0))
-        self._finish(ders[0].T.reshape(self.sizes + (3,)), [model.u, model.v])
+        X = ders[0].T.reshape(self.sizes + (3,))
+        self._finish(X, [model.u, model.v])
+        # the strips need the samples where the grid parameters put them
+        moved = any(c.any() for c in collapsed)
+        self.strips = None if moved else self._strips(X, self._midpoints(model, gu, gv))
+
+    def _midpoints(self, model: _SurfaceModel, gu: np.ndarray, gv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """S half way between neighbouring samples: along u (sizes[0] - 1 or, closed, sizes[0]
+        rows) and along v."""
+        def halves(g: np.ndarray, d: _SpanPolynomials) -> np.ndarray:
+            nxt = np.append(g[1:], g[0] + (d.hi - d.lo)) if d.periodic else g[1:]
+            return wrap_parameters(0.5 * (g[: nxt.size] + nxt), d.lo, d.hi) if d.periodic else 0.5 * (g[:-1] + nxt)
+        return self._points(model, halves(gu, model.u), gv), self._points(model, gu, halves(gv, model.v))
+
+    def _strips(self, X: np.ndarray, mids: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+        """Thin covers for :meth:`strip_gap` (mm), shape (2 axes, 2 sides, samples).
+
+        Near a tight nose the grid cells are long strips (20 degrees across, a whole step
+        along the span), and the ball of ``cover`` round a sample holds many samples round
+        the nose and along the flanks. So, for sample j, grid axis a and side s = -1, +1:
+        the two cells on that side of j along a lie within r of the chord X_j -> X_j+s: r is
+        the largest distance of their other corners from the chord, plus 1.5 times the largest
+        sagitta (midpoint's distance from its chord) of their edges, which bounds how far a
+        cell bulges out of the bilinear sheet through its corners. r = inf where there is no
+        cell on that side (a clamped end).
+        """
+        sizes, closed = X.shape[:2], self.periodic
+        sag = []
+        for axis, M in enumerate(mids):
+            A = X[: M.shape[0]] if axis == 0 else X[:, : M.shape[1]]
+            B = np.roll(X, -1, axis=axis)[: M.shape[0]] if axis == 0 else np.roll(X, -1, axis=axis)[:, : M.shape[1]]
+            sag.append(_segment_distance(M.reshape(-1, 3).T, A.reshape(-1, 3).T, B.reshape(-1, 3).T).reshape(M.shape[:2]))
+
+        def shifted(n: int, off: int, wrap: bool) -> tuple[np.ndarray, np.ndarray]:
+            i = np.arange(n) + off
+            inside = (i >= 0) & (i < n)
+            return (i % n, np.ones(n, bool)) if wrap else (np.clip(i, 0, n - 1), inside)
+
+        def edge_sag(axis: int, i: np.ndarray, j: np.ndarray, off: int) -> np.ndarray:
+            """Sagitta of the edge from sample (i, j) one step ``off`` along ``axis``."""
+            S = sag[axis]
+            lo = [i, j]
+            lo[axis] = lo[axis] + min(off, 0)
+            n = sizes[axis]
+            lo[axis] = lo[axis] % n if closed[axis] else np.clip(lo[axis], 0, S.shape[axis] - 1)
+            return S[lo[0], lo[1]]
+
+        I, J = np.meshgrid(np.arange(sizes[0]), np.arange(sizes[1]), indexing="ij")
+        out = np.empty((2, 2) + sizes)
+        for axis in (0, 1):
+            other = 1 - axis
+            for side, s in enumerate((-1, 1)):
+                along, has = shifted(sizes[axis], s, closed[axis])
+                A = X
+                idx = [I, J]
+                idx[axis] = along[(I, J)[axis]]
+                B = X[idx[0], idx[1]]
+                r = np.zeros(sizes)
+                sagitta = np.zeros(sizes)
+                for o in (-1, 1):
+                    across, _ = shifted(sizes[other], o, closed[other])
+                    for base in (A, B):
+                        c = [I, J] if base is A else list(idx)
+                        c[other] = across[c[other]]
+                        Q = X[c[0], c[1]]
+                        dist = _segment_distance(Q.reshape(-1, 3).T, A.reshape(-1, 3).T, B.reshape(-1, 3).T)
+                        np.maximum(r, dist.reshape(sizes), out=r)
+                    # the edges across, at j and at j + s, on this side o of the chord
+                    for c in ([I, J], list(idx)):
+                        np.maximum(sagitta, edge_sag(other, c[0], c[1], o), out=sagitta)
+                    c = [I, J]
+                    c[other] = across[c[other]]
+                    np.maximum(sagitta, edge_sag(axis, c[0], c[1], s), out=sagitta)
+                np.maximum(sagitta, edge_sag(axis, I, J, s), out=sagitta)
+                r += 1.5 * sagitta
+                r[~has[(I, J)[axis]]] = np.inf
+                out[axis, side] = r
+        return out.reshape(2, 2, -1)
+
+    def strip_gap(self, P: np.ndarray, k: np.ndarray) -> np.ndarray:
+        """A lower bound of the distance from points P (3, n) to the surface in the four
+        cells round samples k (mm), from the thin covers of :meth:`_strips` (-inf without)."""
+        if self.strips is None:
+            return np.full(k.size, -np.inf)
+        X = self.tree.data
+        best = np.full(k.size, -np.inf)
+        for axis in (0, 1):
+            size, closed = self.sizes[axis], self.periodic[axis]
+            cells = self.sample_cells(k)
+            near = np.full(k.size, np.inf)
+            for side, s in enumerate((-1, 1)):
+                c = cells.copy()
+                c[axis] = c[axis] + s
+                c[axis] = c[axis] % size if closed else np.clip(c[axis], 0, size - 1)
+                B = X[self.flat_index(c)].T
+                gap = _segment_distance(P, X[k].T, B) - self.strips[axis, side][k]
+                np.minimum(near, gap, out=near)
+            np.maximum(best, near, out=best)
+        return best
 
     @staticmethod
     def _collapsed(ders: list, shape: tuple) -> tuple[np.ndarray, np.ndarray]:
@@ -625,6 +732,9 @@ class _CurveGrid(_StartGrid):
         self.state = (tt, span, np.stack(ders).reshape(3 * model.dim, -1))
         self._set_axes(ders[0], ders[1])
         self._finish(ders[0].T, [model.t])
+
+    def strip_gap(self, P: np.ndarray, k: np.ndarray) -> np.ndarray:
+        return np.full(k.size, -np.inf)
 
     def start(self, k: np.ndarray) -> tuple:
         tt, span, ders = self.state
@@ -1329,14 +1439,16 @@ def _more_starts(grid: _StartGrid, solve, turn, P: np.ndarray, feet: _Feet, nois
     closest root wins (``feet`` updated in place).
 
     Of the ``_N_WIDE`` nearest samples of a point, the nearest one closer than d + cover,
-    not tried yet and not next to an interior foot already found starts Newton again, up
-    to ``_MAX_STARTS`` more times per point. (Most of these runs, ~98 % on a blade's thin
-    edges, end at the foot already known. Stopping a run once it comes within a cell of
-    that foot halves their cost but was seen to miss a foot 95 nm closer beside it, where
-    a circular edge meets a flank: they run to the end.) The candidates are kept as a
-    flat list of
-    (point, sample) pairs, sorted by point and then by distance: a point has ~8 of them
-    on average but up to 64, so a dense table would be mostly padding.
+    not tried yet, not next to an interior foot already found and whose cells may come
+    within d of P by their thin covers (:meth:`_SurfaceGrid.strip_gap`) starts Newton again, up
+    to ``_MAX_STARTS`` more times per point. (Most of these runs end at the foot already
+    known. The thin covers cut them by three quarters on the sample nominal, whose cells
+    round the trailing edge are 0.001-0.02 mm across and 0.54 mm long. Stopping a run once
+    it comes within a cell of the known foot halves their cost but was seen to miss a foot
+    95 nm closer beside it, where a circular edge meets a flank: they run to the end.) The
+    candidates are kept as a flat list of (point, sample) pairs, sorted by point and then
+    by distance: a point has ~8 of them on average but up to 64, so a dense table would be
+    mostly padding.
     """
     params, d = list(feet.params), feet.dist
     row, k, dk = _samples_in_reach(grid, P, d, workers)
@@ -1353,6 +1465,13 @@ def _more_starts(grid: _StartGrid, solve, turn, P: np.ndarray, feet: _Feet, nois
     # boundary minimum that may lie right beside an interior one
     free = ~grid.on_end([g[c] for g, c in zip(grid.params, cells)])
     blocked = (blocks[row] & free & grid.close(cells, grid.param_cells(params)[:, row])) | (k == feet.k0[row])
+    # blocked pairs stay blocked: drop them, then those whose cells are too far from P
+    keep = np.flatnonzero(~blocked)
+    keep = keep[grid.strip_gap(P[:, row[keep]], k[keep]) < d[row[keep]]]
+    if not keep.size:
+        return
+    row, k, dk, cover, cells, free = row[keep], k[keep], dk[keep], cover[keep], cells[:, keep], free[keep]
+    blocked = np.zeros(row.size, dtype=bool)
     promise = grid.promise(P[:, row], k, dk)
     starts = np.flatnonzero(np.r_[True, row[1:] != row[:-1]])        # each point's first pair
     slot = np.full(d.size, -1)
