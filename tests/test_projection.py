@@ -566,6 +566,10 @@ def test_bad_input():
     s = plane_patch()
     with pytest.raises(BladeReconError, match="NaN"):
         project_points_to_surface(s, np.array([[0.0, 0.0, 0.0], [np.nan, 1.0, 1.0]]))
+    with pytest.raises(BladeReconError, match="row 2"):          # inf, and a sum that overflows
+        project_points_to_surface(s, np.array([[1e308, 0.0, 0.0], [1e308, 0.0, 0.0], [0.0, -np.inf, 0.0]]))
+    big = np.array([[1e308, 0.0, 0.0], [1e308, 0.0, 0.0]])           # finite, though their sum is not
+    assert proj._check_points(big, 3) is not None
     with pytest.raises(BladeReconError, match=r"\(m, 3\)"):
         project_points_to_surface(s, np.zeros((4, 2)))
     with pytest.raises(ValueError):

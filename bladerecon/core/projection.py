@@ -1028,6 +1028,9 @@ def _check_points(points: np.ndarray, dim: int) -> np.ndarray:
         P = P[None, :]
     if P.ndim != 2 or P.shape[1] != dim:
         raise BladeReconError(f"points must be an (m, {dim}) array of coordinates in mm; got shape {P.shape}")
+    with np.errstate(over="ignore", invalid="ignore"):
+        if np.isfinite(np.sum(P)):    # one cheap pass; a sum may overflow, so check again then
+            return P
     bad = ~np.isfinite(P).all(axis=1)
     if bad.any():
         rows = np.flatnonzero(bad)
@@ -1114,15 +1117,21 @@ def _shared(shape: tuple[int, ...], dtype=float) -> np.ndarray:
     return np.frombuffer(mmap.mmap(-1, max(size, 1)), dtype=dtype, count=int(np.prod(shape))).reshape(shape)
 
 
-def _spatial_order(P: np.ndarray) -> np.ndarray:
+def _spatial_order(P: np.ndarray, grid: _StartGrid) -> np.ndarray:
     """A permutation that visits the points voxel by voxel (32 voxels along the longest
-    side of their box): neighbouring points then share k-d tree branches and patches,
-    which makes the searches about a quarter faster than in scan or random order. The
-    voxel index fits 15 bits, so numpy sorts it by radix (twice as fast as a 64-bit key)."""
-    lo = P.min(axis=0)
-    size = max(float((P.max(axis=0) - lo).max()) / 31.999, 1e-300)
-    key = np.minimum((P - lo) / size, 31.0).astype(np.int16)
-    return np.argsort((key[:, 0] * 32 + key[:, 1]) * 32 + key[:, 2], kind="stable")
+    side of the spline's box, points outside it in the voxels on its faces): neighbouring
+    points then share k-d tree branches and patches, which makes the searches about a
+    quarter faster than in scan or random order. The box is the k-d tree's (the points' own
+    would cost two passes over them). The voxel index fits 15 bits, so numpy sorts it by
+    radix (twice as fast as a 64-bit key)."""
+    lo, hi = grid.tree.mins, grid.tree.maxes
+    size = max(float((hi - lo).max()) / 31.999, 1e-300)
+    key = np.clip((P - lo) * (1.0 / size), 0.0, 31.0).astype(np.int16)
+    flat = key[:, 0].copy()
+    for axis in range(1, P.shape[1]):
+        flat *= 32
+        flat += key[:, axis]
+    return np.argsort(flat, kind="stable")
 
 
 def _inverse(order: np.ndarray) -> np.ndarray:
@@ -1220,7 +1229,7 @@ def project_points_to_surface(
         return [uc, vc], D, cc, focal
 
     if grid is not None:
-        order = _spatial_order(P) if m > _CHUNK else None
+        order = _spatial_order(P, grid) if m > _CHUNK else None
         if order is not None:
             P = np.take(P, order, axis=0)
         (u, v), D, conv = _search(grid, solve, lambda p: model.evaluate(p[0], p[1], 2), _surface_turn, P, noise)
@@ -1283,7 +1292,7 @@ def project_points_to_curve(
         return [tc], D, cc, focal
 
     if grid is not None:
-        order = _spatial_order(P) if m > _CHUNK else None
+        order = _spatial_order(P, grid) if m > _CHUNK else None
         if order is not None:
             P = np.take(P, order, axis=0)
         (t,), D, conv = _search(grid, solve, lambda p: model.evaluate(p[0], 2), _curve_turn, P, noise)
