@@ -1239,39 +1239,37 @@ def project_points_to_surface(
         uc, vc, D, cc, focal = _newton_surface(model, Pc, start, tol, max_iter, noise)
         return [uc, vc], D, cc, focal
 
-    if grid is not None:
-        order = _spatial_order(P, grid) if m > _CHUNK else None
-        if order is not None:
-            P = np.take(P, order, axis=0)
-        (u, v), D, conv = _search(grid, solve, lambda p: model.evaluate(p[0], p[1], 2), _surface_turn, P, noise)
-    else:
-        order = None
-        u, v, D, conv = _shared((m,)), _shared((m,)), _shared((3, 3, m)), _shared((m,), bool)
-
-        def work(s: int, e: int, kd_workers: int) -> None:
-            (u[s:e], v[s:e]), Dc, conv[s:e], _ = solve(np.ascontiguousarray(P[s:e].T), model.evaluate(u0[s:e], v0[s:e], 2))
-            D[:, :, s:e] = Dc[:3]
-
-        _for_each_block(m, work, shared=True)
     out = Projection(u=_shared((m,)), v=_shared((m,)), foot=_shared((m, 3)), distance=_shared((m,)),
                      signed=_shared((m,)), normal=_shared((m, 3)), converged=_shared((m,), bool))
+    order = None
 
-    def finish(s: int, e: int, kd_workers: int) -> None:
-        """Normals and signs of the feet s:e, written back in the caller's point order."""
-        rows = order[s:e] if order is not None else slice(s, e)
-        S, Su, Sv = D[0][:, s:e], D[1][:, s:e], D[2][:, s:e]
+    def emit(rows, params: list, D: np.ndarray, conv: np.ndarray) -> None:
+        """Normals and signs of the feet of the points ``rows`` (a slice or indices of P),
+        written to ``out`` in the caller's point order."""
+        target = order[rows] if order is not None else rows
+        S, Su, Sv = D[0], D[1], D[2]
         n = np.cross(Su, Sv, axis=0)
         n_len = np.sqrt(_dot(n, n))
-        off = np.ascontiguousarray(P[s:e].T) - S
+        off = np.ascontiguousarray(P[rows].T) - S
         dist = np.sqrt(_dot(off, off))
         # where S_u x S_v vanishes (a collapsed edge) the offset direction is the normal
         degenerate = n_len <= 1e-14 * np.sqrt(np.maximum(_dot(Su, Su) * _dot(Sv, Sv), 1e-300))
         n = np.where(degenerate, off / np.maximum(dist, 1e-300), n / np.where(degenerate, 1.0, n_len))
-        out.u[rows], out.v[rows], out.converged[rows] = u[s:e], v[s:e], conv[s:e]
-        out.foot[rows], out.normal[rows], out.distance[rows] = S.T, n.T, dist
-        out.signed[rows] = np.where(_dot(off, n) < 0, -dist, dist)
+        out.u[target], out.v[target], out.converged[target] = params[0], params[1], conv
+        out.foot[target], out.normal[target], out.distance[target] = S.T, n.T, dist
+        out.signed[target] = np.where(_dot(off, n) < 0, -dist, dist)
 
-    _for_each_block(m, finish, shared=True)
+    if grid is not None:
+        order = _spatial_order(P, grid) if m > _CHUNK else None
+        if order is not None:
+            P = np.take(P, order, axis=0)
+        _search(grid, solve, lambda p: model.evaluate(p[0], p[1], 2), _surface_turn, P, noise, emit)
+    else:
+        def work(s: int, e: int, kd_workers: int) -> None:
+            params, D, conv, _ = solve(np.ascontiguousarray(P[s:e].T), model.evaluate(u0[s:e], v0[s:e], 2))
+            emit(slice(s, e), params, D, conv)
+
+        _for_each_block(m, work, shared=True)
     return out
 
 
@@ -1386,7 +1384,7 @@ class _Feet:
         self.bend[w] = dist[win] * turn(ders[:, :, win])[0]
 
 
-def _search(grid: _StartGrid, solve, start_at, turn, P: np.ndarray, noise: float):
+def _search(grid: _StartGrid, solve, start_at, turn, P: np.ndarray, noise: float, emit=None):
     """Global search for the closest feet of the points P (m, dim) (seed 001 eq. 11).
 
     1. Newton from the nearest grid sample of every point (:func:`_first_feet`), in blocks
@@ -1400,7 +1398,9 @@ def _search(grid: _StartGrid, solve, start_at, turn, P: np.ndarray, noise: float
     ``solve(P, start)`` -> (params, derivatives at the foot, converged, focal);
     ``start_at(params)`` evaluates a Newton start; ``turn(ders)`` gives the largest
     curvature and its direction (:func:`_surface_turn`). Returns params, derivatives,
-    converged.
+    converged. With ``emit(rows, params, derivatives, converged)`` the feet are also handed
+    over as they are found: each block's in the first pass (in its worker, while it is at
+    hand), then again those of the points the later passes may have moved.
     """
     m, dim = P.shape
     feet = _Feet(_shared((len(grid.sizes), m)), _shared((_KEPT, dim, m)), _shared((m,), bool), _shared((m,)),
@@ -1410,6 +1410,8 @@ def _search(grid: _StartGrid, solve, start_at, turn, P: np.ndarray, noise: float
     def first(s: int, e: int, workers: int) -> None:
         block, suspect[s:e] = _first_feet(grid, solve, turn, np.ascontiguousarray(P[s:e].T), noise, workers)
         feet.put(slice(s, e), block)
+        if emit is not None:
+            emit(slice(s, e), list(block.params), block.ders, block.conv)
 
     _for_each_block(m, first, shared=True)
     rows = np.flatnonzero(suspect)
@@ -1425,11 +1427,16 @@ def _search(grid: _StartGrid, solve, start_at, turn, P: np.ndarray, noise: float
             feet.put(r, sub)
 
         _for_each_block(rows.size, more, max(_MIN_BATCH, -(-rows.size // _THREADS)), shared=True)
-    rows = np.flatnonzero(feet.bend > _TURN)
-    if rows.size:
-        sub = feet.take(rows)
-        _turn_starts(solve, start_at, turn, np.ascontiguousarray(P[rows].T), sub, noise)
-        feet.put(rows, sub)
+    turned = np.flatnonzero(feet.bend > _TURN)
+    if turned.size:
+        sub = feet.take(turned)
+        _turn_starts(solve, start_at, turn, np.ascontiguousarray(P[turned].T), sub, noise)
+        feet.put(turned, sub)
+    if emit is not None:
+        moved = np.union1d(np.flatnonzero(suspect), turned)
+        if moved.size:
+            sub = feet.take(moved)
+            emit(moved, list(sub.params), sub.ders, sub.conv)
     return list(feet.params), feet.ders, feet.conv
 
 
