@@ -658,21 +658,34 @@ class _SurfaceGrid(_StartGrid):
         cells round samples k (mm), from the thin covers of :meth:`_strips` (-inf without)."""
         if self.strips is None:
             return np.full(k.size, -np.inf)
+        return np.maximum(self._axis_gap(P, k, 0), self._axis_gap(P, k, 1))
+
+    def may_reach(self, P: np.ndarray, k: np.ndarray, d: np.ndarray) -> np.ndarray:
+        """False where the cells round sample k surely hold no point within d of P
+        (:meth:`strip_gap` >= d); one axis at a time, the second only where the first left
+        it open (the strips along the span are the thin ones round an edge)."""
+        out = np.ones(k.size, dtype=bool)
+        if self.strips is None:
+            return out
+        for axis in (1, 0):
+            open_ = np.flatnonzero(out)
+            out[open_[self._axis_gap(P[:, open_], k[open_], axis) >= d[open_]]] = False
+        return out
+
+    def _axis_gap(self, P: np.ndarray, k: np.ndarray, axis: int) -> np.ndarray:
+        """The bound of :meth:`strip_gap` from the chords along one grid axis."""
         X = self.tree.data
-        best = np.full(k.size, -np.inf)
-        for axis in (0, 1):
-            size, closed = self.sizes[axis], self.periodic[axis]
-            cells = self.sample_cells(k)
-            near = np.full(k.size, np.inf)
-            for side, s in enumerate((-1, 1)):
-                c = cells.copy()
-                c[axis] = c[axis] + s
-                c[axis] = c[axis] % size if closed else np.clip(c[axis], 0, size - 1)
-                B = X[self.flat_index(c)].T
-                gap = _segment_distance(P, X[k].T, B) - self.strips[axis, side][k]
-                np.minimum(near, gap, out=near)
-            np.maximum(best, near, out=best)
-        return best
+        size, closed = self.sizes[axis], self.periodic[axis]
+        cells = self.sample_cells(k)
+        A = X[k].T
+        near = np.full(k.size, np.inf)
+        for side, s in enumerate((-1, 1)):
+            c = cells.copy()
+            c[axis] = c[axis] + s
+            c[axis] = c[axis] % size if closed else np.clip(c[axis], 0, size - 1)
+            gap = _segment_distance(P, A, X[self.flat_index(c)].T) - self.strips[axis, side][k]
+            np.minimum(near, gap, out=near)
+        return near
 
     @staticmethod
     def _collapsed(ders: list, shape: tuple) -> tuple[np.ndarray, np.ndarray]:
@@ -746,6 +759,9 @@ class _CurveGrid(_StartGrid):
 
     def strip_gap(self, P: np.ndarray, k: np.ndarray) -> np.ndarray:
         return np.full(k.size, -np.inf)
+
+    def may_reach(self, P: np.ndarray, k: np.ndarray, d: np.ndarray) -> np.ndarray:
+        return np.ones(k.size, dtype=bool)
 
     def start(self, k: np.ndarray) -> tuple:
         tt, span, ders = self.state
@@ -1494,7 +1510,7 @@ def _more_starts(grid: _StartGrid, solve, turn, P: np.ndarray, feet: _Feet, nois
     blocked = (blocks[row] & free & grid.close(cells, grid.param_cells(params)[:, row])) | (k == feet.k0[row])
     # blocked pairs stay blocked: drop them, then those whose cells are too far from P
     keep = np.flatnonzero(~blocked)
-    keep = keep[grid.strip_gap(P[:, row[keep]], k[keep]) < d[row[keep]]]
+    keep = keep[grid.may_reach(P[:, row[keep]], k[keep], d[row[keep]])]
     if not keep.size:
         return
     row, k, dk, cover, cells, free = row[keep], k[keep], dk[keep], cover[keep], cells[:, keep], free[keep]
