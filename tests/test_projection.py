@@ -514,6 +514,19 @@ def test_curve_projection_against_brute_force_and_scipy():
         assert d <= np.sqrt(best.fun) + 1e-9 and np.sqrt(best.fun) - d < 1e-7
 
 
+def test_many_points_on_a_plane_curve_in_blocks():
+    """More points than a block on a 2D curve: they are put in voxel order (any dimension)
+    and give the same feet as a few at a time."""
+    c3 = _clamped_curve()
+    c = BSplineCurve(poles=np.asarray(c3.poles)[:, :2], knots=c3.knots, mults=c3.mults,
+                     degree=c3.degree, periodic=c3.periodic)
+    P = np.random.default_rng(7).normal(size=(proj._CHUNK + 5000, 2)) * 5.0
+    many = project_points_to_curve(c, P)
+    few = project_points_to_curve(c, P[-500:])
+    assert np.array_equal(many.distance[-500:], few.distance)
+    assert np.array_equal(many.t[-500:], few.t)
+
+
 def test_periodic_section_curve_with_tight_edges():
     s = blade_surface()
     c = BSplineCurve(s.poles[:, 3, :2], s.u_knots, s.u_mults, 3, True)      # a 2D section
