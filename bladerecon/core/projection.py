@@ -601,55 +601,43 @@ class _SurfaceGrid(_StartGrid):
         cell on that side (a clamped end).
         """
         sizes, closed = X.shape[:2], self.periodic
-        sag = []
+        sag = []                        # sagitta of each edge, by axis and lower end
         for axis, M in enumerate(mids):
-            A = X[: M.shape[0]] if axis == 0 else X[:, : M.shape[1]]
-            B = np.roll(X, -1, axis=axis)[: M.shape[0]] if axis == 0 else np.roll(X, -1, axis=axis)[:, : M.shape[1]]
-            sag.append(_segment_distance(M.reshape(-1, 3).T, A.reshape(-1, 3).T, B.reshape(-1, 3).T).reshape(M.shape[:2]))
-
-        def shifted(n: int, off: int, wrap: bool) -> tuple[np.ndarray, np.ndarray]:
-            i = np.arange(n) + off
-            inside = (i >= 0) & (i < n)
-            return (i % n, np.ones(n, bool)) if wrap else (np.clip(i, 0, n - 1), inside)
-
-        def edge_sag(axis: int, i: np.ndarray, j: np.ndarray, off: int) -> np.ndarray:
-            """Sagitta of the edge from sample (i, j) one step ``off`` along ``axis``."""
-            S = sag[axis]
-            lo = [i, j]
-            lo[axis] = lo[axis] + min(off, 0)
-            n = sizes[axis]
-            lo[axis] = lo[axis] % n if closed[axis] else np.clip(lo[axis], 0, S.shape[axis] - 1)
-            return S[lo[0], lo[1]]
-
+            ends = [slice(None), slice(None)]
+            ends[axis] = slice(0, M.shape[axis])
+            A, B = X[tuple(ends)], np.roll(X, -1, axis=axis)[tuple(ends)]
+            sag.append(_segment_distance(*(Y.reshape(-1, 3).T for Y in (M, A, B))).reshape(M.shape[:2]))
         I, J = np.meshgrid(np.arange(sizes[0]), np.arange(sizes[1]), indexing="ij")
+
+        def step(idx: tuple, axis: int, off: int) -> tuple:
+            """Grid indices idx moved ``off`` along ``axis`` (wrapped, or held at a clamped end)."""
+            out = list(idx)
+            i = idx[axis] + off
+            out[axis] = i % sizes[axis] if closed[axis] else np.clip(i, 0, sizes[axis] - 1)
+            return tuple(out)
+
+        def edge_sag(idx: tuple, axis: int, off: int) -> np.ndarray:
+            """Sagitta of the edge from idx one step ``off`` along ``axis``."""
+            lo = list(step(idx, axis, min(off, 0)))
+            lo[axis] = np.minimum(lo[axis], sag[axis].shape[axis] - 1)
+            return sag[axis][tuple(lo)]
+
         out = np.empty((2, 2) + sizes)
         for axis in (0, 1):
             other = 1 - axis
             for side, s in enumerate((-1, 1)):
-                along, has = shifted(sizes[axis], s, closed[axis])
-                A = X
-                idx = [I, J]
-                idx[axis] = along[(I, J)[axis]]
-                B = X[idx[0], idx[1]]
-                r = np.zeros(sizes)
-                sagitta = np.zeros(sizes)
-                for o in (-1, 1):
-                    across, _ = shifted(sizes[other], o, closed[other])
-                    for base in (A, B):
-                        c = [I, J] if base is A else list(idx)
-                        c[other] = across[c[other]]
-                        Q = X[c[0], c[1]]
-                        dist = _segment_distance(Q.reshape(-1, 3).T, A.reshape(-1, 3).T, B.reshape(-1, 3).T)
-                        np.maximum(r, dist.reshape(sizes), out=r)
-                    # the edges across, at j and at j + s, on this side o of the chord
-                    for c in ([I, J], list(idx)):
-                        np.maximum(sagitta, edge_sag(other, c[0], c[1], o), out=sagitta)
-                    c = [I, J]
-                    c[other] = across[c[other]]
-                    np.maximum(sagitta, edge_sag(axis, c[0], c[1], s), out=sagitta)
-                np.maximum(sagitta, edge_sag(axis, I, J, s), out=sagitta)
+                far = step((I, J), axis, s)                    # X_j+s, the chord's other end
+                A, B = X.reshape(-1, 3).T, X[far].reshape(-1, 3).T
+                r, sagitta = np.zeros(sizes), edge_sag((I, J), axis, s)
+                for o in (-1, 1):                              # the cells on either side of the chord
+                    for end in ((I, J), far):
+                        corner = X[step(end, other, o)].reshape(-1, 3).T
+                        np.maximum(r, _segment_distance(corner, A, B).reshape(sizes), out=r)
+                        np.maximum(sagitta, edge_sag(end, other, o), out=sagitta)
+                    np.maximum(sagitta, edge_sag(step((I, J), other, o), axis, s), out=sagitta)
                 r += 1.5 * sagitta
-                r[~has[(I, J)[axis]]] = np.inf
+                if not closed[axis]:                           # no cell beyond a clamped end
+                    r[((I, J)[axis] + s < 0) | ((I, J)[axis] + s >= sizes[axis])] = np.inf
                 out[axis, side] = r
         return out.reshape(2, 2, -1)
 
