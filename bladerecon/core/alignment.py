@@ -75,6 +75,11 @@ class Alignment:
     weights: np.ndarray | None = None       # robust: each point's final weight in [0, 1]
     cutoff_mm: float | None = None          # robust: |residual| beyond this weighs nothing
 
+    @property
+    def points_weighted_out(self) -> int:
+        """Robust fit: how many points weighed nothing (0 for a plain fit)."""
+        return int(np.sum(self.weights == 0)) if self.weights is not None else 0
+
     def as_dict(self) -> dict:
         """JSON-ready form (the ``alignment`` object of ``deviation --json``)."""
         out = {"mode": self.mode, "matrix": self.matrix.tolist(), "rotation_deg": self.rotation_deg,
@@ -83,7 +88,7 @@ class Alignment:
                "iterations": self.iterations, "converged": self.converged, "robust": self.robust}
         if self.robust and self.weights is not None:
             out["robust_cutoff_mm"] = self.cutoff_mm
-            out["points_weighted_out"] = int(np.sum(self.weights == 0))
+            out["points_weighted_out"] = self.points_weighted_out
         return out
 
 

@@ -745,11 +745,8 @@ class _CurveGrid(_StartGrid):
         self._set_axes(ders[0], ders[1])
         self._finish(ders[0].T, [model.t])
 
-    def strip_gap(self, P: np.ndarray, k: np.ndarray) -> np.ndarray:
-        return np.full(k.size, -np.inf)
-
     def may_reach(self, P: np.ndarray, k: np.ndarray, d: np.ndarray) -> np.ndarray:
-        return np.ones(k.size, dtype=bool)
+        return np.ones(k.size, dtype=bool)     # no thin covers for a curve's grid
 
     def start(self, k: np.ndarray) -> tuple:
         tt, span, ders = self.state

@@ -507,8 +507,7 @@ class DeviationAnalysis(_Feature):
         obj.AlignmentMatrix = FreeCAD.Matrix(*np.asarray(matrix, float).ravel().tolist())
         obj.RotationDeg = float(res.alignment.rotation_deg) if res.alignment is not None else 0.0
         obj.TranslationMm = FreeCAD.Vector(*(matrix[:3, 3]))
-        al = res.alignment
-        obj.PointsWeightedOut = int((al.weights == 0).sum()) if al is not None and al.weights is not None else 0
+        obj.PointsWeightedOut = res.alignment.points_weighted_out if res.alignment is not None else 0
         obj.Deviations = [float(x) for x in res.deviation.signed]
         obj.AlignedPoints = _vectors(res.points)
         obj.SurfaceDeviations = [float(x) for x in grid_dev]
