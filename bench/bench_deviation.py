@@ -38,7 +38,7 @@ import numpy as np
 BENCH = Path(__file__).resolve().parent
 ROOT = BENCH.parent
 sys.path.insert(0, str(ROOT))
-DATA = ROOT.parent / "shared" / "data"
+DATA = ROOT / "tests" / "data"
 RESULTS = BENCH / "results"
 
 from bladerecon.core.bspline import surface_derivatives  # noqa: E402

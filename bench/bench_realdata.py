@@ -31,7 +31,7 @@ BENCH = Path(__file__).resolve().parent
 ROOT = BENCH.parent
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "tests"))
-DATA = ROOT.parent / "shared" / "data"
+DATA = ROOT / "tests" / "data"
 RESULTS = BENCH / "results"
 
 from bladerecon.core.fairing import fair_section  # noqa: E402

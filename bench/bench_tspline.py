@@ -31,7 +31,7 @@ sys.path.insert(0, str(ROOT))
 
 from bladerecon.core import tspline as ts  # noqa: E402
 
-DATA = ROOT.parent / "shared" / "data"
+DATA = ROOT / "tests" / "data"
 OUT = ROOT / "bench" / "results"
 
 

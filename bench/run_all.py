@@ -25,7 +25,7 @@ import numpy as np
 
 BENCH = Path(__file__).resolve().parent
 sys.path.insert(0, str(BENCH.parent))
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
+DATA = Path(__file__).resolve().parents[1] / "tests" / "data"
 RESULTS = BENCH / "results"
 
 from bladerecon.core.pairing import reconstruct_paired  # noqa: E402

@@ -32,7 +32,7 @@ from bladerecon.fc.occ_measure import occ_distances  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 SAMPLE = ROOT / "resources" / "sample"
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
+DATA = Path(__file__).resolve().parent / "data"
 ROTOR37 = DATA / "nasa_rotor37" / "rotor37_sections_xyz_mm.txt"
 
 
@@ -58,8 +58,6 @@ def near_points(surface, m: int, rng, spread: float = 0.3, le_share: float = 0.2
 
 @pytest.fixture(scope="module")
 def rotor37_nominal(tmp_path_factory):
-    if not ROTOR37.is_file():
-        pytest.skip(f"{ROTOR37} not present")
     from bladerecon.core.readers import read_points
     from bladerecon.core.reconstruct import reconstruct
     from bladerecon.core.sections import build_sections

@@ -126,9 +126,7 @@ def test_nasa_rotor67_design_table_has_no_bad_points():
     from bladerecon.core.readers import read_points
     from bladerecon.core.sections import build_sections
 
-    f = Path(__file__).resolve().parents[2] / "shared" / "data" / "nasa_rotor67" / "rotor67_sections_xyz_mm.txt"
-    if not f.exists():
-        pytest.skip("shared/data not beside the repository")
+    f = Path(__file__).resolve().parent / "data" / "nasa_rotor67" / "rotor67_sections_xyz_mm.txt"
     secs = build_sections(read_points(str(f))).sections
     for s in secs:
         assert not fair_section(s.points, 0.01).bad.any()

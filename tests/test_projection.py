@@ -266,7 +266,7 @@ def cone_surface() -> BSplineSurface:
 
 
 def _bumpy_poles() -> np.ndarray:
-    g = np.stack(np.meshgrid(np.arange(5) * 10.0, np.arange(4) * 10.0, indexing="ij") + [np.zeros((5, 4))], axis=-1)
+    g = np.stack([*np.meshgrid(np.arange(5) * 10.0, np.arange(4) * 10.0, indexing="ij"), np.zeros((5, 4))], axis=-1)
     return g + np.random.default_rng(17).normal(scale=3.0, size=(5, 4, 3))
 
 

@@ -13,15 +13,14 @@ import pytest
 from bladerecon.core.errors import BladeReconError
 from bladerecon.core.readers import PointSet, read_points, write_points_csv
 
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
+DATA = Path(__file__).resolve().parent / "data"
 ROTOR37 = DATA / "nasa_rotor37" / "rotor37_sections_xyz_mm.txt"
 ROTOR67 = DATA / "nasa_rotor67" / "rotor67_sections_xyz_mm.txt"
 R67_CLOUD = DATA / "parablade_r67_cloud" / "NASA_R67_MoveSurface.txt"
 
 
 def need(path: Path) -> Path:
-    if not path.exists():
-        pytest.skip(f"shared data file not present: {path}")
+    assert path.is_file(), f"test data missing from the checkout: {path}"
     return path
 
 

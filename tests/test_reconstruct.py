@@ -19,7 +19,7 @@ from bladerecon.core.section_curves import choose_method, estimate_noise
 from bladerecon.core.sections import build_sections
 from bladerecon.core.projection import project_points_to_surface
 
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
+DATA = Path(__file__).resolve().parent / "data"
 Z = np.array([0.0, 0.0, 1.0])
 BLADE = SampleBlade()
 
@@ -177,7 +177,6 @@ def _held_out(path: Path, occ):
     return rec, occ(rec.surface, np.concatenate(inside))
 
 
-@pytest.mark.skipif(not (DATA / "nasa_rotor37").is_dir(), reason="shared NASA data not present")
 def test_rotor37_held_out_sections(occ):
     """Fit the odd sections of NASA Rotor 37; the even ones are measured against the surface."""
     rec, d = _held_out(DATA / "nasa_rotor37" / "rotor37_sections_xyz_mm.txt", occ)
@@ -186,7 +185,6 @@ def test_rotor37_held_out_sections(occ):
     assert d.max() < 0.25 and d.mean() < 0.05
 
 
-@pytest.mark.skipif(not (DATA / "nasa_rotor67").is_dir(), reason="shared NASA data not present")
 def test_rotor67_held_out_sections(occ):
     rec, d = _held_out(DATA / "nasa_rotor67" / "rotor67_sections_xyz_mm.txt", occ)
     print(f"Rotor 67 held-out sections: max {d.max():.4f} mean {d.mean():.4f} mm")

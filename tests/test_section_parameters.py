@@ -17,7 +17,7 @@ from bladerecon.core.section_parameters import fit_circle, measure_section, segm
 from bladerecon.core.sections import build_sections
 
 ROOT = Path(__file__).resolve().parents[1]
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
+DATA = Path(__file__).resolve().parent / "data"
 R37 = DATA / "nasa_rotor37" / "rotor37_sections_xyz_mm.txt"
 R67 = DATA / "nasa_rotor67" / "rotor67_sections_xyz_mm.txt"
 

@@ -11,7 +11,7 @@ from bladerecon.core.errors import BladeReconError
 from bladerecon.core.readers import PointSet, read_points, write_points_csv
 from bladerecon.core.sections import build_sections, section_plane_frame
 
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
+DATA = Path(__file__).resolve().parent / "data"
 ROTORS = {
     "rotor37": DATA / "nasa_rotor37" / "rotor37_sections_xyz_mm.txt",
     "rotor67": DATA / "nasa_rotor67" / "rotor67_sections_xyz_mm.txt",
@@ -20,8 +20,6 @@ ROTORS = {
 
 def rotor(name: str) -> PointSet:
     path = ROTORS[name]
-    if not path.exists():
-        pytest.skip(f"shared data file not present: {path}")
     return read_points(path)
 
 

@@ -17,7 +17,7 @@ from bladerecon.core.segmentation import (
     LE, PRESSURE, SUCTION, TE, ThroatSpec, section_frame, segment_section, throat_chord_ratio,
 )
 
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
+DATA = Path(__file__).resolve().parent / "data"
 BLADE = SampleBlade()
 Z = np.array([0.0, 0.0, 1.0])
 
