@@ -15,9 +15,19 @@ from bladerecon.core.spline import BSplineCurve, BSplineSurface
 
 from .freecad_env import import_freecad
 
-__all__ = ["to_part_surface", "to_part_curve", "from_part_surface", "from_part_curve", "make_face"]
+__all__ = ["to_part_surface", "to_part_curve", "from_part_surface", "from_part_curve", "make_face", "compound"]
 
 FreeCAD, Part = import_freecad()
+
+
+def compound(shapes: list) -> Any:
+    """A ``Part.Compound`` of ``shapes`` (an empty list gives an empty compound).
+
+    Not ``Part.makeCompound``: in FreeCAD 1.0 run headless (``import FreeCAD`` in a plain
+    Python) it crashes the process with a segfault, which FreeCAD's own handler turns into a
+    silent exit status 1. The ``Part.Compound`` constructor builds the same shape on 0.20 and 1.x.
+    """
+    return Part.Compound(list(shapes))
 
 
 def _vector(p: np.ndarray) -> Any:

@@ -17,7 +17,7 @@ from bladerecon.core.errors import BladeReconError
 from bladerecon.core.spline import BSplineSurface
 from bladerecon.core.tolerances import PLANAR_TOL
 
-from .convert import make_face
+from .convert import compound, make_face
 from .freecad_env import import_freecad, stdout_to_stderr
 
 __all__ = ["write_step", "make_solid", "read_shape", "end_section_flatness", "SHAPE_SUFFIXES"]
@@ -236,7 +236,7 @@ def _read_fcstd(path: str) -> Any:
                 if hasattr(obj, "getGlobalPlacement"):
                     shape.Placement = obj.getGlobalPlacement()
                 shapes.append(shape)
-        return Part.makeCompound(shapes)
+        return compound(shapes)
     finally:
         if opened:
             FreeCAD.closeDocument(doc.Name)

@@ -28,6 +28,7 @@ import numpy as np
 
 from bladerecon.core.errors import BladeReconError
 
+from .convert import compound
 from .freecad_env import import_freecad
 
 __all__ = ["MeasuredPoints", "BladeSections", "BladeSurface", "DeviationAnalysis",
@@ -164,7 +165,7 @@ class MeasuredPoints(_Feature):
             raise BladeReconError(f"{obj.Label}: {n} points but {len(obj.SectionIndex)} section labels: "
                                   "import the file again")
         obj.PointCount, obj.SectionCount = n, len(obj.SectionNames)
-        obj.Shape = Part.makeCompound([Part.Vertex(v) for v in obj.Points]) if n else Part.Shape()
+        obj.Shape = compound([Part.Vertex(v) for v in obj.Points]) if n else Part.Shape()
 
 
 def make_measured_points(doc: Any, path: str, name: str = "MeasuredPoints") -> Any:
@@ -294,7 +295,7 @@ class BladeSections(_Feature):
         params = section_parameters(build_sections(_linked_points(obj)))
         edges = [Part.Edge(to_part_curve(c)) for c in params.curves]
         marks = [Part.Vertex(FreeCAD.Vector(*p)) for p in np.vstack([params.leading_edge, params.trailing_edge])]
-        obj.Shape = Part.makeCompound(edges + marks)
+        obj.Shape = compound(edges + marks)
         obj.SectionNames = list(params.names)
         obj.LeadingEdges = _vectors(params.leading_edge)
         obj.TrailingEdges = _vectors(params.trailing_edge)

@@ -31,13 +31,15 @@ def update_preview(doc: Any, points) -> Any:
     """Show ``points`` ((n, 3), mm) as one vertex compound ``LiveAcquisition`` in ``doc``."""
     import Part
 
+    from bladerecon.fc.convert import compound
+
     obj = doc.getObject(PREVIEW_NAME)
     if obj is None:
         obj = doc.addObject("Part::Feature", PREVIEW_NAME)
         obj.Label = "Live acquisition"
         if FreeCAD.GuiUp:
             obj.ViewObject.PointSize = commands.SECTION_POINT_SIZE
-    obj.Shape = Part.makeCompound([Part.Vertex(float(x), float(y), float(z)) for x, y, z in points])
+    obj.Shape = compound([Part.Vertex(float(x), float(y), float(z)) for x, y, z in points])
     return obj
 
 
