@@ -1,5 +1,8 @@
 """Live acquisition on real pseudo-terminals with the simulated controller: nothing lost,
-every fault counted, the journal byte-identical to what was sent; bad input; throughput."""
+every fault counted, the journal byte-identical to what was sent; bad input; throughput.
+
+No test can hang: every wait has a deadline and fails saying what did not happen. The tests
+that need a pseudo-terminal skip, with the reason, on a machine that cannot make one."""
 from __future__ import annotations
 
 import json
@@ -23,18 +26,97 @@ from bladerecon.core.readers import read_points  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 ENV = dict(os.environ, PYTHONPATH=str(ROOT))
+DEADLINE = 10.0  # s for anything on a local pty or socket (it takes milliseconds)
+SIMULATOR_START = 60.0  # s for the simulator process to start, plan the measurement and publish its pty
+SIMULATOR_END = 60.0  # s for the simulator process to end once the capture is over
+
+
+def _pty_problem() -> str | None:
+    """Why this machine cannot make a pseudo-terminal that a reader opens by name; None if it can."""
+    link = PtyLink()
+    try:
+        os.close(os.open(link.open(), os.O_RDWR | os.O_NOCTTY))
+    except (OSError, BladeReconError) as err:
+        return f"needs a pseudo-terminal: {err}"
+    finally:
+        link.close(drain=False)
+    return None
+
+
+PTY_PROBLEM = _pty_problem()  # probed once
+needs_pty = pytest.mark.skipif(PTY_PROBLEM is not None, reason=str(PTY_PROBLEM))
+
+
+class Deadline:
+    """``check(what)`` raises ``TimeoutError("<what> in <seconds> s<hint>")`` once ``seconds`` have
+    passed; ``what`` (a string, or a callable giving one) says what did not happen."""
+
+    def __init__(self, seconds: float = DEADLINE) -> None:
+        self.seconds = seconds
+        self.end = time.monotonic() + seconds
+
+    def check(self, what, hint: str = "") -> None:
+        if time.monotonic() >= self.end:
+            raise TimeoutError(f"{what() if callable(what) else what} in {self.seconds:g} s{hint}")
+
+
+class Worker(threading.Thread):
+    """A daemon thread whose exception the test sees (``check``); ``finish`` joins it with a deadline."""
+
+    def __init__(self, target, *args) -> None:
+        super().__init__(target=target, args=args, daemon=True)
+        self.error: BaseException | None = None
+
+    def run(self) -> None:
+        try:
+            super().run()
+        except BaseException as err:
+            self.error = err
+
+    def check(self) -> None:
+        if self.error is not None:
+            raise self.error
+
+    def finish(self, seconds: float, what: str) -> None:
+        self.join(seconds)
+        self.check()
+        if self.is_alive():
+            raise TimeoutError(f"{what} in {seconds:g} s")
+
+
+def read_until(read, word: bytes, what: str) -> bytes:
+    """``read()`` until ``word`` has arrived; ``TimeoutError`` naming ``what`` after DEADLINE s."""
+    buf = b""
+    deadline = Deadline()
+    while word not in buf:
+        deadline.check(what)
+        buf += read()
+    return buf
 
 
 def simulator(tmp: Path, *args) -> tuple[subprocess.Popen, Path]:
     link = tmp / "ttyBLADE"
     proc = subprocess.Popen([sys.executable, "-m", "bladerecon", "simulate-instrument", "--link", str(link),
                              *map(str, args)], env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    end = time.monotonic() + 60
+    end = time.monotonic() + SIMULATOR_START
     while not link.is_symlink():
         assert proc.poll() is None, proc.stderr.read()
-        assert time.monotonic() < end, "the simulator did not publish its pty"
+        if time.monotonic() >= end:
+            proc.kill()
+            proc.communicate()
+            pytest.fail(f"the simulator published no pty at {link} in {SIMULATOR_START:g} s: is /dev/pts mounted?")
         time.sleep(0.02)
     return proc, link
+
+
+def finish(proc: subprocess.Popen) -> tuple[str, str]:
+    """The simulator's (stdout, stderr) once it has ended; killed, and the test failed, if it does not."""
+    try:
+        return proc.communicate(timeout=SIMULATOR_END)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.communicate()
+        pytest.fail(f"the simulator did not end in {SIMULATOR_END:g} s after the capture")
 
 
 def cli(*args, timeout=120):
@@ -53,7 +135,7 @@ def big_capture(tmp_path_factory):
                            "--expected", tmp / "expected.json")
     reader = InstrumentReader(str(link), journal=tmp / "journal.raw")
     acq = reader.run()
-    out, err = proc.communicate(timeout=60)
+    out, err = finish(proc)
     assert proc.returncode == 0, err
     from bladerecon.core.readers import write_points_csv
     pts, sec = acq.points()
@@ -61,6 +143,7 @@ def big_capture(tmp_path_factory):
     return tmp, reader, acq, json.loads(out)
 
 
+@needs_pty
 def test_every_good_record_captured_once_and_every_fault_counted(big_capture):
     tmp, reader, acq, sim = big_capture
     expected = json.loads((tmp / "expected.json").read_text())
@@ -74,11 +157,13 @@ def test_every_good_record_captured_once_and_every_fault_counted(big_capture):
     assert acq.done
 
 
+@needs_pty
 def test_journal_is_byte_identical_to_what_was_sent(big_capture):
     tmp, *_ = big_capture
     assert (tmp / "journal.raw").read_bytes() == (tmp / "sent.raw").read_bytes()
 
 
+@needs_pty
 def test_points_equal_the_clean_file_and_replay_gives_the_same(big_capture):
     tmp, _, acq, _ = big_capture
     captured, clean = read_points(tmp / "captured.csv"), read_points(tmp / "clean.csv")
@@ -89,6 +174,7 @@ def test_points_equal_the_clean_file_and_replay_gives_the_same(big_capture):
     np.testing.assert_array_equal(again.points()[0], acq.points()[0])
 
 
+@needs_pty
 def test_captured_points_reconstruct_the_clean_surface(big_capture):
     from bladerecon.core.bspline import evaluate_surface
     from bladerecon.core.projection import project_points_to_surface
@@ -125,10 +211,11 @@ def _timed_capture(proc, link, tmp_path):
     cpu = time.process_time()
     acq = reader.run()
     cpu = time.process_time() - cpu
-    proc.communicate(timeout=60)
+    finish(proc)
     return reader, acq, cpu, acq.summary()["records"] / reader.seconds
 
 
+@needs_pty
 def test_pty_throughput(tmp_path):
     """Records/s through a real pty, simulator as fast as it can write (no faults)."""
     proc, link = simulator(tmp_path, "--sections", 4, "--points", 5000, "--rate", 0)
@@ -154,7 +241,9 @@ def test_loop_url_throughput():
     port = loop_port()
     t = time.perf_counter()
     n = 0
+    deadline = Deadline()
     while n < len(data):
+        deadline.check(lambda: f"loop:// gave back {n} of {len(data)} bytes")
         n += len(port.read(port.in_waiting or 1))
     bare = len(plan.lines) / (time.perf_counter() - t)
     port = loop_port()
@@ -166,6 +255,7 @@ def test_loop_url_throughput():
     assert acq.summary()["points"] == 20000 and rate > 0.5 * bare
 
 
+@needs_pty
 def test_cpu_fraction_at_115200_baud(tmp_path):
     """At the rate 115200 baud carries (~10 bits per byte) the reader sleeps most of the time."""
     proc, link = simulator(tmp_path, "--sections", 2, "--points", 500)
@@ -174,11 +264,12 @@ def test_cpu_fraction_at_115200_baud(tmp_path):
     assert acq.summary()["points"] == 1000 and cpu / reader.seconds < 0.25
 
 
+@needs_pty
 def test_acquire_cli_writes_points_and_json_and_replays(tmp_path):
     proc, link = simulator(tmp_path, "--sections", 3, "--points", 300, "--rate", 0, "--bad-checksum", 0.02,
                            "--direct", "--clean", tmp_path / "clean.csv")
     r = cli("acquire", "--port", link, "-o", tmp_path / "pts.csv", "--journal", tmp_path / "j.raw", "--json")
-    proc.communicate(timeout=60)
+    finish(proc)
     assert r.returncode == 0, r.stderr
     summary = json.loads(r.stdout)
     for key in ("records", "points", "sections", "bad_checksum", "malformed", "out_of_range", "missing_seq",
@@ -203,6 +294,27 @@ def test_a_port_that_does_not_exist(tmp_path):
     assert "does not exist" in msg and not (tmp_path / "p.csv").exists()
 
 
+@pytest.mark.parametrize("journal", [None, "j.raw"], ids=["default-journal", "named-journal"])
+def test_a_capture_that_cannot_start_leaves_no_journal(tmp_path, journal):
+    """The journal is created only once the port is open, so a retry is not refused with "already exists"."""
+    args = ["acquire", "--port", tmp_path / "ttyNONE", "-o", tmp_path / "p.csv"]
+    if journal:
+        args += ["--journal", tmp_path / journal]
+    for attempt in (1, 2):
+        msg = _one_error_line(cli(*args))
+        assert "does not exist" in msg, (attempt, msg)
+        assert list(tmp_path.iterdir()) == [], attempt  # no journal (empty or not), no output
+
+
+def test_without_pyserial_one_line_and_no_journal(tmp_path):
+    code = "import sys; sys.modules['serial'] = None; from bladerecon.cli import main; sys.exit(main(sys.argv[1:]))"
+    r = subprocess.run([sys.executable, "-c", code, "acquire", "--port", "loop://", "-o", str(tmp_path / "p.csv"),
+                        "--journal", str(tmp_path / "j.raw")], env=ENV, capture_output=True, text=True, timeout=120)
+    msg = _one_error_line(r)
+    assert "pyserial is not installed" in msg and list(tmp_path.iterdir()) == []
+
+
+@needs_pty
 def test_a_busy_port(tmp_path):
     master, slave = os.openpty()
     name = os.ttyname(slave)
@@ -216,20 +328,20 @@ def test_a_busy_port(tmp_path):
         os.close(slave)
 
 
+@needs_pty
 def test_wrong_baud_rate_garbage_only_and_journal_kept(tmp_path):
     link = PtyLink(str(tmp_path / "tty"))
     link.open()
     junk = np.random.default_rng(1).integers(0, 256, 6000, dtype=np.uint8).tobytes()
 
     def controller():
-        buf = b""
-        while b"START" not in buf:
-            buf += link.read_command(0.05)
+        read_until(lambda: link.read_command(0.05), b"START", "the reader sent no START")
         link.write(junk)
 
-    th = threading.Thread(target=controller, daemon=True)
+    th = Worker(controller)
     th.start()
     r = cli("acquire", "--port", tmp_path / "tty", "-o", tmp_path / "p.csv", "--journal", tmp_path / "j.raw")
+    th.finish(DEADLINE, "the controller did not end")
     link.close(drain=False)
     msg = _one_error_line(r)
     assert "wrong baud rate" in msg and "j.raw" in msg
@@ -256,18 +368,25 @@ def test_silent_port_gives_up_with_a_message(tmp_path):
     assert "no valid record for 1 s" in msg
 
 
+@needs_pty
 def test_simulator_in_process_stop_and_resume(tmp_path):
     """STOP pauses the controller and START resumes it with the next unsent record."""
     plan = sample_plan(2, 200, faults=Faults())
     link = PtyLink(str(tmp_path / "tty"))
-    th = threading.Thread(target=play, args=(plan, link, str(tmp_path / "sent.raw"), 2000.0), daemon=True)
+    th = Worker(play, plan, link, str(tmp_path / "sent.raw"), 2000.0)
     th.start()
+    deadline = Deadline()
     while not (tmp_path / "tty").is_symlink():
+        th.check()  # play() failed before publishing: its own error
+        deadline.check(f"the simulator published no pty at {tmp_path / 'tty'}", ": is /dev/pts mounted?")
         time.sleep(0.01)
     port = serial.Serial(str(tmp_path / "tty"), timeout=0.05)
     port.write(b"START\r\n")
     got = b""
+    deadline = Deadline()
     while len(got) < 2000:
+        th.check()
+        deadline.check(lambda: f"the simulator sent {len(got)} of the first 2000 bytes after START")
         got += port.read(port.in_waiting or 1)
     port.write(b"STOP\r\n")
     time.sleep(0.3)
@@ -276,16 +395,36 @@ def test_simulator_in_process_stop_and_resume(tmp_path):
     time.sleep(0.3)
     assert port.in_waiting == 0  # nothing while stopped
     port.write(b"START\r\n")
+    deadline = Deadline()
     while not got.endswith(plan.lines[-1]):
+        th.check()
+        deadline.check(lambda: f"the simulator did not finish after the second START ({len(got)} bytes arrived)")
         got += port.read(port.in_waiting or 1)
     port.close()
-    th.join(10)
+    th.finish(DEADLINE, "play() did not end after its last record")
     link.close(drain=False)
     assert paused < len(got) and got == b"".join(plan.lines)
     with pytest.raises(BladeReconError):
         replay(tmp_path / "nothing.raw")
 
 
+@needs_pty
+def test_the_simulator_never_waits_forever(tmp_path):
+    """No START from the host, or a host that stops reading: the controller gives up and says which."""
+    link = PtyLink(str(tmp_path / "tty"), io_timeout=0.3)
+    t = time.monotonic()
+    try:
+        with pytest.raises(TimeoutError, match="no START from the host in 0.2 s"):
+            play(sample_plan(2, 200), link, start_timeout=0.2)
+        with pytest.raises(TimeoutError, match="the host read nothing for 0.3 s"):
+            link.write(b"x" * (1 << 20))  # far more than a pty holds; nobody reads
+        assert not link.drain()
+    finally:
+        link.close(drain=False)
+    assert time.monotonic() - t < 5
+
+
+@needs_pty
 def test_a_silent_controller_gets_start_again(tmp_path):
     """A link that stays up but goes quiet (the controller waits for START, e.g. after its own
     reset): after ``timeout`` s the reader sends START again on the open port, which is counted."""
@@ -296,15 +435,13 @@ def test_a_silent_controller_gets_start_again(tmp_path):
 
     def controller():
         for part in (plan.lines[:half], plan.lines[half:]):
-            buf = b""
-            while b"START" not in buf:
-                buf += link.read_command(0.05)
+            read_until(lambda: link.read_command(0.05), b"START", "the reader sent no START")
             link.write(b"".join(part))
 
-    th = threading.Thread(target=controller, daemon=True)
+    th = Worker(controller)
     th.start()
     acq = InstrumentReader(str(tmp_path / "tty"), timeout=0.3, give_up=10).run()
-    th.join(10)
+    th.finish(DEADLINE, "the controller did not end")
     link.close(drain=False)
     s = acq.summary()
     assert acq.done and s["points"] == 200 and s["missing_seq"] == 0 and s["reconnects"] == 1
@@ -318,21 +455,33 @@ def test_socket_url(tmp_path):
     server = socket.socket()
     server.bind(("127.0.0.1", 0))
     server.listen(1)
+    server.settimeout(DEADLINE)
+
+    def recv(conn) -> bytes:
+        data = conn.recv(64)
+        if not data:
+            raise ConnectionError("the reader closed the socket before START")
+        return data
 
     def controller():
-        conn, _ = server.accept()
-        buf = b""
-        while b"START" not in buf:
-            buf += conn.recv(64)
+        try:
+            conn, _ = server.accept()
+        except socket.timeout:
+            raise TimeoutError(f"the reader did not connect in {DEADLINE:g} s") from None
+        conn.settimeout(DEADLINE)
+        read_until(lambda: recv(conn), b"START", "the reader sent no START")
         conn.sendall(b"".join(plan.lines))
-        conn.recv(64)  # until the reader closes
+        try:
+            conn.recv(64)  # until the reader closes
+        except socket.timeout:
+            raise TimeoutError(f"the reader did not close the socket in {DEADLINE:g} s after $E") from None
         conn.close()
 
-    th = threading.Thread(target=controller, daemon=True)
+    th = Worker(controller)
     th.start()
     host, port = server.getsockname()
     acq = InstrumentReader(f"socket://{host}:{port}", journal=tmp_path / "j.raw").run()
-    th.join(10)
+    th.finish(DEADLINE, "the controller did not end")
     server.close()
     assert acq.summary() == plan.expected
     assert (tmp_path / "j.raw").read_bytes() == b"".join(plan.lines)
@@ -353,7 +502,10 @@ try:
     plan = sample_plan(3, 200, faults=Faults(bad_checksum=0.02, disconnects=1, seed=3))
     link = PtyLink(os.path.join(out, "tty"))
     threading.Thread(target=play, args=(plan, link, None, 400.0), daemon=True).start()
+    end = time.monotonic() + 10
     while not os.path.islink(os.path.join(out, "tty")):
+        if time.monotonic() >= end:
+            raise TimeoutError("the simulator published no pty in 10 s: is /dev/pts mounted?")
         time.sleep(0.01)
     doc = FreeCAD.newDocument("Live")
     seen = []
@@ -361,8 +513,10 @@ try:
     ac.update_preview = lambda d, p: (seen.append(len(p)), update(d, p))[1]
     cap = ac.LiveAcquisition(os.path.join(out, "tty"), os.path.join(out, "acq.csv"), journal=os.path.join(out, "j.raw"))
     cap.start()
-    end = time.time() + 60
-    while not cap.finished.is_set() and time.time() < end:
+    end = time.monotonic() + 60
+    while not cap.finished.is_set():
+        if time.monotonic() >= end:
+            raise TimeoutError("the live capture did not finish in 60 s")
         QtGui.QApplication.processEvents()
         time.sleep(0.02)
     result["error"] = cap.error
@@ -381,6 +535,7 @@ os._exit(0)
 '''
 
 
+@needs_pty
 @pytest.mark.skipif(not (shutil.which("xvfb-run") and shutil.which("freecad")), reason="needs xvfb-run and freecad")
 def test_workbench_live_acquisition(tmp_path):
     """The workbench command's capture: live preview while points arrive, then MeasuredPoints."""

@@ -139,10 +139,12 @@ def run_simulate(args: argparse.Namespace) -> dict:
         link = PtyLink(args.link)
     say(f"{len(plan.lines)} record lines, {rate:.0f} records/s" if rate else f"{len(plan.lines)} record lines")
     t0 = time.monotonic()
+    played = False
     try:
         sent = play(plan, link, args.sent, rate, say=say)
+        played = True
     except TimeoutError as err:
         raise BladeReconError(f"simulate-instrument: {err}; start 'acquire' on the other end") from None
     finally:
-        link.close()
+        link.close(drain=played)  # after a failure nobody is reading: do not wait for it again
     return {"lines": len(plan.lines), "bytes": sent, "seconds": round(time.monotonic() - t0, 3), **plan.expected}

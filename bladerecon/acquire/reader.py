@@ -2,7 +2,8 @@
 
 Every chunk of bytes is appended to the raw journal, flushed and ``fsync``-ed *before* it
 is parsed, so a crash or a power cut loses nothing that arrived and any capture can be
-replayed (:func:`replay`). Reads take only what is already waiting (``in_waiting``), or
+replayed (:func:`replay`). The journal is created (never overwritten) only once the port
+is open, so a capture that cannot start leaves no file behind. Reads take only what is already waiting (``in_waiting``), or
 one byte when nothing is, so a port that drops mid-read cannot discard a partly filled
 buffer; an incomplete trailing line is kept across reads and reconnects.
 
@@ -28,9 +29,19 @@ _POLL = 0.02  # s to sleep after a small chunk: keeps the CPU load low at 115200
 _BIG_CHUNK = 512  # 115200 baud brings ~230 bytes per _POLL: sleep only then
 
 
+def _serial():
+    """pyserial, or a one-line error saying how to get it."""
+    try:
+        import serial
+    except ImportError:
+        raise BladeReconError("pyserial is not installed; install it (pip install pyserial, "
+                              "or apt install python3-serial) and retry") from None
+    return serial
+
+
 def open_port(port: str, baud: int):
     """Open ``port`` (a device, or any pyserial URL: ``loop://``, ``socket://host:port``)."""
-    import serial
+    serial = _serial()
 
     kwargs = {"baudrate": baud, "timeout": _POLL, "write_timeout": 1.0}
     if "://" not in port:
@@ -72,20 +83,31 @@ def _read_available(port) -> bytes:
 
 
 class _Journal:
-    """Append-only raw journal: write, flush and fsync each chunk."""
+    """Append-only raw journal: write, flush and fsync each chunk.
+
+    An existing file is refused at once; the file itself is created by :meth:`create`, once
+    there is something to journal (the port is open)."""
 
     def __init__(self, path: str | os.PathLike | None, fsync: bool = True) -> None:
         self.path = None if path is None else Path(path)
         self.fsync = fsync
         self.fd = None
-        if self.path is not None:
-            if self.path.exists():
-                raise BladeReconError(f"journal {self.path}: already exists; choose another name "
-                                      "(journals are never overwritten) or replay it with --replay")
-            try:
-                self.fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_APPEND, 0o644)
-            except OSError as err:
-                raise BladeReconError(f"journal {self.path}: cannot create ({err.strerror}); check the folder") from None
+        if self.path is not None and self.path.exists():
+            raise self._exists()
+
+    def _exists(self) -> BladeReconError:
+        return BladeReconError(f"journal {self.path}: already exists; choose another name "
+                               "(journals are never overwritten) or replay it with --replay")
+
+    def create(self) -> None:
+        if self.path is None or self.fd is not None:
+            return
+        try:
+            self.fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_APPEND, 0o644)
+        except FileExistsError:
+            raise self._exists() from None
+        except OSError as err:
+            raise BladeReconError(f"journal {self.path}: cannot create ({err.strerror}); check the folder") from None
 
     def append(self, data: bytes) -> None:
         if self.fd is None:
@@ -127,11 +149,16 @@ class InstrumentReader:
         self.seconds = 0.0
 
     def run(self) -> Acquisition:
-        import serial
+        serial = _serial()
 
         t0 = time.monotonic()
         try:
             port = self._open()  # the first open fails at once: a wrong name is not a dropout
+            try:
+                self.journal.create()  # only now: a capture that cannot start leaves no file
+            except BladeReconError:
+                port.close()
+                raise
             self._start(port)
             last_data = last_report = last_start = last_progress = time.monotonic()
             records = 0

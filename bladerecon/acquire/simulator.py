@@ -6,6 +6,8 @@ deterministically from a seed (and what a perfect reader must report);
 symlink (as ``socat ... link=``) so a disconnect can close it and a new one appear under
 the same path; :func:`play` waits for ``START`` and streams, honouring ``STOP``.
 Every byte written is also appended to ``sent`` so tests can compare it with the journal.
+Nothing here waits forever: no ``START`` within ``start_timeout``, or a host that takes no
+byte for ``io_timeout`` s, ends :func:`play` with :class:`TimeoutError` saying which.
 """
 from __future__ import annotations
 
@@ -20,6 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..core.errors import BladeReconError
 from ..core.instrument import Calibration, format_record
 
 __all__ = ["Faults", "MeasurementPlan", "plan_measurement", "PtyLink", "PortLink", "play"]
@@ -133,21 +136,35 @@ def plan_measurement(sections: list[np.ndarray], calibration: Calibration, fault
 
 
 class PtyLink:
-    """A pseudo-terminal; its slave name is published at ``link`` (a symlink) when given."""
+    """A pseudo-terminal; its slave name is published at ``link`` (a symlink) when given.
 
-    def __init__(self, link: str | None = None) -> None:
+    :meth:`write` and :meth:`drain` give up (``TimeoutError``) when the host takes no byte for
+    ``io_timeout`` s: a reader that died must not leave the controller blocked forever."""
+
+    def __init__(self, link: str | None = None, io_timeout: float = 10.0) -> None:
         self.link = link
+        self.io_timeout = io_timeout
         self.master = self.slave = -1
         self.name = ""
 
     def open(self) -> str:
-        self.master, self.slave = os.openpty()
-        tty.setraw(self.slave)  # no echo, no CR/LF translation before the reader configures it
-        self.name = os.ttyname(self.slave)
+        try:
+            self.master, self.slave = os.openpty()
+            tty.setraw(self.slave)  # no echo, no CR/LF translation before the reader configures it
+            self.name = os.ttyname(self.slave)
+        except (OSError, termios.error) as err:
+            self._close_fds()
+            raise BladeReconError(f"cannot create a pseudo-terminal ({err}); check that /dev/pts is mounted, "
+                                  "or give an existing port with --port") from None
+        os.set_blocking(self.master, False)  # write() waits with a deadline, never in the kernel
         if self.link:
             tmp = f"{self.link}.{os.getpid()}.tmp"
-            os.symlink(self.name, tmp)
-            os.replace(tmp, self.link)  # appears atomically under the stable name
+            try:
+                os.symlink(self.name, tmp)
+                os.replace(tmp, self.link)  # appears atomically under the stable name
+            except OSError as err:
+                self._close_fds()
+                raise BladeReconError(f"--link {self.link}: cannot create ({err.strerror}); check the folder") from None
         return self.link or self.name
 
     def read_command(self, timeout: float) -> bytes:
@@ -160,32 +177,52 @@ class PtyLink:
             return b""
 
     def write(self, data: bytes) -> None:
+        """Write all of ``data``; ``TimeoutError`` when the host takes none of it for ``io_timeout`` s."""
         view = memoryview(data)
+        end = time.monotonic() + self.io_timeout
         while view:
-            view = view[os.write(self.master, view):]
+            try:
+                n = os.write(self.master, view)
+            except BlockingIOError:
+                n = 0
+            if n:
+                view = view[n:]
+                end = time.monotonic() + self.io_timeout
+                continue
+            left = end - time.monotonic()
+            if left <= 0:
+                raise TimeoutError(f"the host read nothing for {self.io_timeout:g} s ({len(view)} bytes unsent)")
+            select.select([], [self.master], [], min(left, 0.1))
 
-    def drain(self, timeout: float = 10.0, quiet: float = 0.1) -> None:
+    def _unread(self) -> int:
+        return struct.unpack("I", fcntl.ioctl(self.slave, termios.FIONREAD, struct.pack("I", 0)))[0]
+
+    def drain(self, timeout: float | None = None, quiet: float = 0.1) -> bool:
         """Wait until the reader has taken every byte: the slave's input queue stays empty
         for ``quiet`` s (bytes may still sit in the kernel's flip buffer for a moment, and
-        closing the master discards them)."""
-        end = time.monotonic() + timeout
-        buf = struct.pack("I", 0)
+        closing the master discards them). False when bytes are still unread after
+        ``timeout`` s (default ``io_timeout``)."""
+        end = time.monotonic() + (self.io_timeout if timeout is None else timeout)
         empty_since = None
         while time.monotonic() < end:
             now = time.monotonic()
-            if struct.unpack("I", fcntl.ioctl(self.slave, termios.FIONREAD, buf))[0] == 0:
+            if self._unread() == 0:
                 empty_since = empty_since or now
                 if now - empty_since >= quiet:
-                    return
+                    return True
             else:
                 empty_since = None
             time.sleep(0.005)
+        return False
 
     def close(self, drain: bool = True) -> None:
         if drain and self.master >= 0:
             self.drain()
         if self.link and os.path.islink(self.link):
             os.unlink(self.link)  # the name vanishes first, then the device
+        self._close_fds()
+
+    def _close_fds(self) -> None:
         for fd in (self.master, self.slave):
             if fd >= 0:
                 os.close(fd)
@@ -195,10 +232,11 @@ class PtyLink:
 class PortLink:
     """An existing port opened with pyserial (``--port``); a disconnect is a pause."""
 
-    def __init__(self, port: str, baud: int) -> None:
+    def __init__(self, port: str, baud: int, io_timeout: float = 10.0) -> None:
         import serial
-        self.port = serial.serial_for_url(port, baudrate=baud, timeout=0)
+        self.port = serial.serial_for_url(port, baudrate=baud, timeout=0, write_timeout=io_timeout)
         self.name = port
+        self.io_timeout = io_timeout
 
     def open(self) -> str:
         return self.name
@@ -212,13 +250,17 @@ class PortLink:
             time.sleep(0.01)
 
     def write(self, data: bytes) -> None:
-        self.port.write(data)
-        self.port.flush()
+        import serial
+        try:
+            self.port.write(data)
+            self.port.flush()
+        except serial.SerialTimeoutException:
+            raise TimeoutError(f"the port took no data for {self.io_timeout:g} s (flow control held?)") from None
 
-    def drain(self, timeout: float = 10.0) -> None:
-        pass
+    def drain(self, timeout: float | None = None) -> bool:
+        return True
 
-    def close(self) -> None:
+    def close(self, drain: bool = True) -> None:
         pass
 
 
@@ -232,19 +274,26 @@ def _wait_for(link, word: bytes, timeout: float) -> bool:
     return False
 
 
+def _drain(link) -> None:
+    if not link.drain():
+        raise TimeoutError(f"the host stopped reading (bytes still unread after {link.io_timeout:g} s)")
+
+
 def play(plan: MeasurementPlan, link, sent_path: str | None = None, rate: float = 0.0,
          pause: float = 0.3, start_timeout: float = 60.0, say=lambda msg: None) -> int:
     """Stream ``plan`` on ``link`` after ``START``; ``rate`` records/s (0 = as fast as the link
     takes them). At a disconnect the link is closed for ``pause`` s and reopened (a pty
     reappears under the same link name); the stream resumes after the next ``START``.
-    Returns the number of bytes sent."""
+    Returns the number of bytes sent. ``TimeoutError`` when no ``START`` comes within
+    ``start_timeout`` s (at the start, after a disconnect or after ``STOP``) or the host
+    stops reading (the link's ``io_timeout``)."""
     sent = open(sent_path, "wb") if sent_path else None
     total = 0
     batch = max(1, int(rate * 0.02)) if rate else 200
     try:
         say(f"waiting for START on {link.open()}")
         if not _wait_for(link, b"START", start_timeout):
-            raise TimeoutError("no START from the host")
+            raise TimeoutError(f"no START from the host in {start_timeout:g} s")
         t0 = time.monotonic()
         i = 0
         while i < len(plan.lines):
@@ -263,20 +312,21 @@ def play(plan: MeasurementPlan, link, sent_path: str | None = None, rate: float 
             total += len(data)
             if j - 1 in plan.disconnect_after:
                 say(f"disconnect after record line {j}")
-                link.drain()
+                _drain(link)
                 link.close()
                 time.sleep(pause)
                 say(f"back on {link.open()}, waiting for START")
                 if not _wait_for(link, b"START", start_timeout):
-                    raise TimeoutError("no START from the host after the disconnect")
+                    raise TimeoutError(f"no START from the host in {start_timeout:g} s after the disconnect")
             elif b"STOP" in link.read_command(0):
-                _wait_for(link, b"START", start_timeout)
+                if not _wait_for(link, b"START", start_timeout):
+                    raise TimeoutError(f"no START from the host in {start_timeout:g} s after its STOP")
             i = j
             if rate:
                 ahead = t0 + i / rate - time.monotonic()
                 if ahead > 0:
                     time.sleep(ahead)
-        link.drain()
+        _drain(link)
     finally:
         if sent:
             sent.close()
