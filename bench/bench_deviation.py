@@ -41,8 +41,8 @@ sys.path.insert(0, str(ROOT))
 DATA = ROOT / "tests" / "data"
 RESULTS = BENCH / "results"
 
-from bladerecon.core.bspline import surface_derivatives  # noqa: E402
-from bladerecon.core import projection  # noqa: E402
+from bladerecon.core.geometry.bspline import surface_derivatives  # noqa: E402
+from bladerecon.core.geometry import projection  # noqa: E402
 from bladerecon.fc.freecad_env import import_freecad  # noqa: E402
 
 FreeCAD, Part = import_freecad()
@@ -73,9 +73,9 @@ def rotor37_step(tmp: Path) -> Path | None:
     path = DATA / "nasa_rotor37" / "rotor37_sections_xyz_mm.txt"
     if not path.is_file():
         return None
-    from bladerecon.core.readers import read_points
+    from bladerecon.core.io.readers import read_points
     from bladerecon.core.reconstruct import reconstruct
-    from bladerecon.core.sections import build_sections
+    from bladerecon.core.sections.ordering import build_sections
     from bladerecon.fc.convert import make_face
     from bladerecon.fc.export import write_step
 

@@ -34,15 +34,15 @@ sys.path.insert(0, str(ROOT / "tests"))
 DATA = ROOT / "tests" / "data"
 RESULTS = BENCH / "results"
 
-from bladerecon.core.fairing import fair_section  # noqa: E402
-from bladerecon.core.fairness import count_inflections  # noqa: E402
-from bladerecon.core.fitting import interpolate_closed_curve  # noqa: E402
-from bladerecon.core.nongrid import fit_nongrid  # noqa: E402
-from bladerecon.core.projection import project_points_to_surface  # noqa: E402
+from bladerecon.core.sections.fairing import fair_section  # noqa: E402
+from bladerecon.core.analysis.fairness import count_inflections  # noqa: E402
+from bladerecon.core.geometry.fitting import interpolate_closed_curve  # noqa: E402
+from bladerecon.core.surface.nongrid import fit_nongrid  # noqa: E402
+from bladerecon.core.geometry.projection import project_points_to_surface  # noqa: E402
 from bladerecon.core.reconstruct import reconstruct  # noqa: E402
-from bladerecon.core.sample_blade import t_at_length_fraction  # noqa: E402
-from bladerecon.core.sections import build_sections  # noqa: E402
-from bladerecon.core.slicing import read_cloud, slice_cylinders, slices_to_pointset  # noqa: E402
+from bladerecon.samples.blade import t_at_length_fraction  # noqa: E402
+from bladerecon.core.sections.ordering import build_sections  # noqa: E402
+from bladerecon.core.sections.slicing import read_cloud, slice_cylinders, slices_to_pointset  # noqa: E402
 from realdata_fixtures import BLADE, RUNS, clean_section, nongrid_counts, nongrid_rows, with_bad_runs  # noqa: E402
 
 Z = np.array([0.0, 0.0, 1.0])
@@ -121,7 +121,7 @@ def badpoint_table() -> list[dict]:
         if noise == 0:
             inf = [count_inflections(interpolate_closed_curve(p), Z) for p in (clean, bad, f.faired)]
         else:
-            from bladerecon.core.fairing import fair_fit
+            from bladerecon.core.sections.fairing import fair_fit
             inf = [count_inflections(fair_fit(p)[0], Z) for p in (clean, bad, f.faired)]
         out.append({"h": h, "points": n, "noise_mm": noise, "runs_injected": len(expected), "runs_found": found,
                     "points_injected": int(inj.sum()), "points_flagged": int(f.bad.sum()),
@@ -188,7 +188,7 @@ def r67_table() -> dict | None:
     if not cloud_file.exists() or not table_file.exists():
         print("  (Rotor 67 data not found beside the repository: skipped)", file=sys.stderr)
         return None
-    from bladerecon.core.readers import read_points
+    from bladerecon.core.io.readers import read_points
 
     P, lines = read_cloud(str(cloud_file), 1000.0)
     # the cloud's mesh rows 4..11 sit in radius bands (145.2-156.4, 161.2-169.1, ... 247.9-255.2):

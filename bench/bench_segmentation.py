@@ -21,13 +21,13 @@ from scipy.spatial import cKDTree
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from bladerecon.core.bspline import evaluate_curve, evaluate_surface  # noqa: E402
-from bladerecon.core.plan import plan_section  # noqa: E402
+from bladerecon.core.geometry.bspline import evaluate_curve, evaluate_surface  # noqa: E402
+from bladerecon.core.sections.plan import plan_section  # noqa: E402
 from bladerecon.core.reconstruct import reconstruct  # noqa: E402
-from bladerecon.core.sample_blade import SampleBlade, sample_sections, t_at_length_fraction  # noqa: E402
-from bladerecon.core.section_parameters import measure_section, segment_sections  # noqa: E402
-from bladerecon.core.segment_fit import fit_segmented, joint_continuity, unconstrained_segments  # noqa: E402
-from bladerecon.core.segmentation import LE, TE, signed_curvature  # noqa: E402
+from bladerecon.samples.blade import SampleBlade, sample_sections, t_at_length_fraction  # noqa: E402
+from bladerecon.core.sections.parameters import measure_section, segment_sections  # noqa: E402
+from bladerecon.core.sections.edge_fits import fit_segmented, joint_continuity, unconstrained_segments  # noqa: E402
+from bladerecon.core.sections.segmentation import LE, TE, signed_curvature  # noqa: E402
 
 BLADE = SampleBlade()
 Z = np.array([0.0, 0.0, 1.0])

@@ -29,7 +29,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from bladerecon.core import tspline as ts  # noqa: E402
+from bladerecon.core.surface import tspline as ts  # noqa: E402
 
 DATA = ROOT / "tests" / "data"
 OUT = ROOT / "bench" / "results"
@@ -117,23 +117,23 @@ def bench_sinc(quick: bool) -> dict:
 def blade_data(name: str, full: bool = False, closed: bool = False):
     from bladerecon.core.reconstruct import reconstruct
     if name == "sample blade":
-        from bladerecon.core.sample_blade import SampleBlade, sample_sections
-        from bladerecon.core.sections import build_sections
-        from bladerecon.core.readers import PointSet
+        from bladerecon.samples.blade import SampleBlade, sample_sections
+        from bladerecon.core.sections.ordering import build_sections
+        from bladerecon.core.io.readers import PointSet
         secs = sample_sections(SampleBlade(), n_sections=11, n_points=400, noise=0.0, seed=0)
         desc = "sample_sections(SampleBlade(), 11, 400, noise=0)"
         pts = np.concatenate(secs)
         ps = PointSet(pts, np.repeat(np.arange(11), 400), np.arange(1, len(pts) + 1),
                       tuple(str(k + 1) for k in range(11)), "sample", "csv")
     else:
-        from bladerecon.core.readers import read_points
-        from bladerecon.core.sections import build_sections
+        from bladerecon.core.io.readers import read_points
+        from bladerecon.core.sections.ordering import build_sections
         path = DATA / "nasa_rotor37" / "rotor37_sections_xyz_mm.txt"
         if not path.exists():
             return None
         ps = read_points(path)
         desc = "NASA Rotor 37, 13 sections x 198 points"
-    from bladerecon.core.sections import build_sections
+    from bladerecon.core.sections.ordering import build_sections
     sections = build_sections(ps)
     pts = [s.points for s in sections.sections]
     rec = reconstruct(pts, sections.span_axis, first_point_is_measured=not sections.sections[0].reordered)
@@ -183,7 +183,7 @@ def bench_blades(quick: bool) -> list[dict]:
                 log(f"{name}: data missing, skipped")
                 break
             uv, xyz, desc, nsec, surface, lo, scale = data
-            from bladerecon.core.bspline import evaluate_surface
+            from bladerecon.core.geometry.bspline import evaluate_surface
 
             def prior(g, surface=surface, lo=lo, scale=scale):   # the section reconstruction, as in the CLI
                 return evaluate_surface(surface, lo[0] + scale[0] * g[:, 0], lo[1] + scale[1] * g[:, 1])

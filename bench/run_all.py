@@ -28,11 +28,11 @@ sys.path.insert(0, str(BENCH.parent))
 DATA = Path(__file__).resolve().parents[1] / "tests" / "data"
 RESULTS = BENCH / "results"
 
-from bladerecon.core.pairing import reconstruct_paired  # noqa: E402
-from bladerecon.core.readers import PointSet, read_points  # noqa: E402
+from bladerecon.core.surface.pairing import reconstruct_paired  # noqa: E402
+from bladerecon.core.io.readers import PointSet, read_points  # noqa: E402
 from bladerecon.core.reconstruct import reconstruct  # noqa: E402
-from bladerecon.core.sample_blade import SampleBlade, dense_truth, sample_sections, section_heights  # noqa: E402
-from bladerecon.core.sections import build_sections  # noqa: E402
+from bladerecon.samples.blade import SampleBlade, dense_truth, sample_sections, section_heights  # noqa: E402
+from bladerecon.core.sections.ordering import build_sections  # noqa: E402
 from bladerecon.fc.convert import make_face  # noqa: E402
 from bladerecon.fc.freecad_env import import_freecad  # noqa: E402
 

@@ -1,6 +1,6 @@
-"""``python3 -m bladerecon``: see :mod:`bladerecon.cli`."""
+"""``python3 -m bladerecon``: see :mod:`bladerecon.cli.main`."""
 import sys
 
-from .cli import main
+from bladerecon.cli.main import main
 
 sys.exit(main())

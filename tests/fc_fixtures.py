@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from bladerecon.core.errors import BladeReconError
-from bladerecon.core.spline import BSplineSurface
+from bladerecon.core.geometry.spline import BSplineSurface
 
 
 def require_freecad():

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from bladerecon.core.sample_blade import SampleBlade, t_at_length_fraction
+from bladerecon.samples.blade import SampleBlade, t_at_length_fraction
 
 BLADE = SampleBlade()
 

@@ -22,7 +22,7 @@ serial = pytest.importorskip("serial")
 from bladerecon.acquire.reader import InstrumentReader, replay  # noqa: E402
 from bladerecon.acquire.simulator import Faults, PtyLink, play, sample_plan  # noqa: E402
 from bladerecon.core.errors import BladeReconError  # noqa: E402
-from bladerecon.core.readers import read_points  # noqa: E402
+from bladerecon.core.io.readers import read_points  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 ENV = dict(os.environ, PYTHONPATH=str(ROOT))
@@ -137,7 +137,7 @@ def big_capture(tmp_path_factory):
     acq = reader.run()
     out, err = finish(proc)
     assert proc.returncode == 0, err
-    from bladerecon.core.readers import write_points_csv
+    from bladerecon.core.io.readers import write_points_csv
     pts, sec = acq.points()
     write_points_csv(tmp / "captured.csv", pts, sec, acq.section_names)
     return tmp, reader, acq, json.loads(out)
@@ -176,11 +176,11 @@ def test_points_equal_the_clean_file_and_replay_gives_the_same(big_capture):
 
 @needs_pty
 def test_captured_points_reconstruct_the_clean_surface(big_capture):
-    from bladerecon.core.bspline import evaluate_surface
-    from bladerecon.core.projection import project_points_to_surface
+    from bladerecon.core.geometry.bspline import evaluate_surface
+    from bladerecon.core.geometry.projection import project_points_to_surface
     from bladerecon.core.reconstruct import reconstruct
-    from bladerecon.core.sample_blade import SampleBlade, sample_sections
-    from bladerecon.core.sections import build_sections
+    from bladerecon.samples.blade import SampleBlade, sample_sections
+    from bladerecon.core.sections.ordering import build_sections
 
     tmp, *_ = big_capture
 
@@ -193,7 +193,7 @@ def test_captured_points_reconstruct_the_clean_surface(big_capture):
     np.testing.assert_array_equal(captured.poles, clean.poles)  # the same points: the same surface
     # against the whole fault-free measurement (unrounded, no record lost)
     full = sample_sections(SampleBlade(), 6, 3320, "uniform", 0.002, 8)
-    from bladerecon.core.readers import write_points_csv
+    from bladerecon.core.io.readers import write_points_csv
     write_points_csv(tmp / "full.csv", np.concatenate(full), np.repeat(np.arange(6), 3320))
     reference = surface(read_points(tmp / "full.csv"))
     u0, u1 = captured.u_domain
@@ -307,7 +307,7 @@ def test_a_capture_that_cannot_start_leaves_no_journal(tmp_path, journal):
 
 
 def test_without_pyserial_one_line_and_no_journal(tmp_path):
-    code = "import sys; sys.modules['serial'] = None; from bladerecon.cli import main; sys.exit(main(sys.argv[1:]))"
+    code = "import sys; sys.modules['serial'] = None; from bladerecon.cli.main import main; sys.exit(main(sys.argv[1:]))"
     r = subprocess.run([sys.executable, "-c", code, "acquire", "--port", "loop://", "-o", str(tmp_path / "p.csv"),
                         "--journal", str(tmp_path / "j.raw")], env=ENV, capture_output=True, text=True, timeout=120)
     msg = _one_error_line(r)

@@ -1,4 +1,4 @@
-"""Best-fit alignment (point-to-plane ICP): bladerecon.core.alignment (issue 4 §2).
+"""Best-fit alignment (point-to-plane ICP): bladerecon.core.analysis.alignment (issue 4 §2).
 
 The "measured" points are built on the sample blade's nominal B-spline surface itself,
 S(u, v) + f(u, v) n(u, v), so the known deviation field f is the exact answer: the sample
@@ -15,19 +15,19 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from bladerecon.core.alignment import (
+from bladerecon.core.analysis.alignment import (
     SurfaceProjector,
     apply_transform,
     best_fit,
     rotation_about,
     transform_surface,
 )
-from bladerecon.core.bspline import evaluate_surface, surface_derivatives
+from bladerecon.core.geometry.bspline import evaluate_surface, surface_derivatives
 from bladerecon.core.errors import BladeReconError
-from bladerecon.core.projection import project_points_to_surface
-from bladerecon.core.sample_blade import SampleBlade, nominal_surface
-from bladerecon.core.spline import BSplineSurface
-from bladerecon.core.surface_analysis import surface_curvature
+from bladerecon.core.geometry.projection import project_points_to_surface
+from bladerecon.samples.blade import SampleBlade, nominal_surface
+from bladerecon.core.geometry.spline import BSplineSurface
+from bladerecon.core.analysis.surface_analysis import surface_curvature
 
 ANGLE_TOL_DEG = 0.001
 SHIFT_TOL_MM = 0.0005
@@ -46,7 +46,7 @@ def on_surface(nominal):
     Points where the nominal bends tighter than 1/30 mm are left out: an offset of 30 µm
     along the normal is not at distance 30 µm from the surface there. (The sample nominal
     has such a spot: a 1.2 µm radius dimple at the trailing edge near the tip, found by
-    :mod:`bladerecon.core.surface_analysis`; one of the 1500 points falls on it.)
+    :mod:`bladerecon.core.analysis.surface_analysis`; one of the 1500 points falls on it.)
     """
     rng = np.random.default_rng(4)
     u, v = rng.uniform(0.0, 1.0, 1500), rng.uniform(0.02, 0.98, 1500)

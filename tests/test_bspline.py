@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from scipy.interpolate import BSpline
 
-from bladerecon.core.bspline import (
+from bladerecon.core.geometry.bspline import (
     approximation_knots,
     averaged_knots,
     basis_derivatives,
@@ -19,7 +19,7 @@ from bladerecon.core.bspline import (
     find_spans,
     surface_derivatives,
 )
-from bladerecon.core.spline import BSplineCurve, BSplineSurface, full_knot_vector
+from bladerecon.core.geometry.spline import BSplineCurve, BSplineSurface, full_knot_vector
 
 
 def _random_clamped(rng, n=12, p=3, dim=3):
@@ -103,7 +103,7 @@ def test_surface_matches_tensor_product_of_scipy_curves():
 
 
 def test_curvature_of_a_circle():
-    from bladerecon.core.fitting import interpolate_closed_curve
+    from bladerecon.core.geometry.fitting import interpolate_closed_curve
 
     t = np.linspace(0, 2 * np.pi, 200, endpoint=False)
     r = 7.5

@@ -6,7 +6,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bladerecon.core.sample_blade import SampleBlade
+from bladerecon.samples.blade import SampleBlade
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -26,7 +26,7 @@ def test_core_modules_import_without_freecad():
     )
     assert proc.returncode == 0, proc.stderr
     result = json.loads(proc.stdout.strip().splitlines()[-1])
-    assert "bladerecon.core.spline" in result["modules"] and "bladerecon.core.bspline" in result["modules"]
+    assert "bladerecon.core.geometry.spline" in result["modules"] and "bladerecon.core.geometry.bspline" in result["modules"]
     assert result["freecad"] == []
 
 

@@ -18,8 +18,8 @@ from fc_fixtures import require_freecad
 
 FreeCAD, Part = require_freecad()
 
-from bladerecon.core.alignment import apply_transform, rotation_about  # noqa: E402
-from bladerecon.core.bspline import surface_derivatives  # noqa: E402
+from bladerecon.core.analysis.alignment import apply_transform, rotation_about  # noqa: E402
+from bladerecon.core.geometry.bspline import surface_derivatives  # noqa: E402
 from bladerecon.core.errors import BladeReconError  # noqa: E402
 from bladerecon.fc.deviation import (  # noqa: E402
     check_units,
@@ -58,9 +58,9 @@ def near_points(surface, m: int, rng, spread: float = 0.3, le_share: float = 0.2
 
 @pytest.fixture(scope="module")
 def rotor37_nominal(tmp_path_factory):
-    from bladerecon.core.readers import read_points
+    from bladerecon.core.io.readers import read_points
     from bladerecon.core.reconstruct import reconstruct
-    from bladerecon.core.sections import build_sections
+    from bladerecon.core.sections.ordering import build_sections
     from bladerecon.fc.convert import make_face
     from bladerecon.fc.export import write_step
 
@@ -309,7 +309,7 @@ def test_cli_reconstructed_surface_against_the_nominal(tmp_path):
 def test_cli_aligned_surface_is_written_moved_back(tmp_path):
     """A reconstructed surface, misplaced by 0.5° about z and 0.3 mm, best-fitted with
     --aligned: the written STEP lies on the nominal again (OCC measures it), the input does not."""
-    from bladerecon.core.alignment import transform_surface
+    from bladerecon.core.analysis.alignment import transform_surface
     from bladerecon.fc.convert import from_part_surface, make_face
     from bladerecon.fc.export import read_shape, write_step
 

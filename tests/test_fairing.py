@@ -5,12 +5,12 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from bladerecon.core.bspline import evaluate_curve
+from bladerecon.core.geometry.bspline import evaluate_curve
 from bladerecon.core.errors import BladeReconError
-from bladerecon.core.fairing import edge_zones, bad_runs, detect_bad_points, fair_fit, fair_section, replace_runs
-from bladerecon.core.fairness import count_inflections
-from bladerecon.core.fitting import interpolate_closed_curve
-from bladerecon.core.projection import project_points_to_surface
+from bladerecon.core.sections.fairing import edge_zones, bad_runs, detect_bad_points, fair_fit, fair_section, replace_runs
+from bladerecon.core.analysis.fairness import count_inflections
+from bladerecon.core.geometry.fitting import interpolate_closed_curve
+from bladerecon.core.geometry.projection import project_points_to_surface
 from bladerecon.core.reconstruct import reconstruct
 from realdata_fixtures import RUNS, clean_section, with_bad_runs
 
@@ -123,8 +123,8 @@ def test_nasa_rotor67_design_table_has_no_bad_points():
     at 0.01 mm, and at the default 3 µm nothing in sections 2-14 (the hub section refuses)."""
     from pathlib import Path
 
-    from bladerecon.core.readers import read_points
-    from bladerecon.core.sections import build_sections
+    from bladerecon.core.io.readers import read_points
+    from bladerecon.core.sections.ordering import build_sections
 
     f = Path(__file__).resolve().parent / "data" / "nasa_rotor67" / "rotor67_sections_xyz_mm.txt"
     secs = build_sections(read_points(str(f))).sections

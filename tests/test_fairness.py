@@ -3,15 +3,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from bladerecon.core.fairness import (
+from bladerecon.core.analysis.fairness import (
     count_inflections,
     gaussian_evenness,
     knot_curvature_jumps,
     strain_energy,
 )
-from bladerecon.core.fitting import interpolate_closed_curve, interpolate_curve
-from bladerecon.core.spline import BSplineCurve
-from bladerecon.core.surface import interpolate_grid
+from bladerecon.core.geometry.fitting import interpolate_closed_curve, interpolate_curve
+from bladerecon.core.geometry.spline import BSplineCurve
+from bladerecon.core.surface.skinning import interpolate_grid
 
 Z = np.array([0.0, 0.0, 1.0])
 

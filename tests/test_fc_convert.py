@@ -4,9 +4,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from bladerecon.core.bspline import curve_derivatives, evaluate_curve, evaluate_surface, surface_derivatives
+from bladerecon.core.geometry.bspline import curve_derivatives, evaluate_curve, evaluate_surface, surface_derivatives
 from bladerecon.core.errors import BladeReconError
-from bladerecon.core.spline import BSplineCurve
+from bladerecon.core.geometry.spline import BSplineCurve
 from fc_fixtures import blade_surface, clamped_knots, clamped_surface, periodic_knots, require_freecad
 
 FreeCAD, Part = require_freecad()

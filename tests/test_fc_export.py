@@ -6,9 +6,9 @@ import os
 import numpy as np
 import pytest
 
-from bladerecon.core.bspline import curve_derivatives, evaluate_surface
+from bladerecon.core.geometry.bspline import curve_derivatives, evaluate_surface
 from bladerecon.core.errors import BladeReconError
-from bladerecon.core.spline import BSplineCurve, BSplineSurface
+from bladerecon.core.geometry.spline import BSplineCurve, BSplineSurface
 from fc_fixtures import blade_surface, clamped_surface, tapered_tube, require_freecad
 
 FreeCAD, Part = require_freecad()

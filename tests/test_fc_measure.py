@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from bladerecon.core.bspline import surface_derivatives
+from bladerecon.core.geometry.bspline import surface_derivatives
 from bladerecon.core.errors import BladeReconError
 from fc_fixtures import blade_surface, require_freecad, tapered_tube
 

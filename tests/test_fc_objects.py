@@ -62,7 +62,7 @@ def test_sections_against_the_sample_blade(chain):
     assert len(sections.Shape.Edges) == 6 and len(sections.Shape.Vertexes) >= 12
     # the issue 3 parameters, against the analytic blade's own section laws (65 points a
     # section with 2 µm noise: an edge with < 5 points gives NaN and a warning, not a radius)
-    from bladerecon.core.sample_blade import SampleBlade
+    from bladerecon.samples.blade import SampleBlade
 
     blade = SampleBlade()
     laws = [blade.section_laws(h) for h in np.arange(6) / 5]
@@ -194,20 +194,20 @@ def test_export_step_round_trip(chain, tmp_path):
 
 def test_report_summary_matches_the_analysis(chain, tmp_path, monkeypatch):
     """write_analysis_report hands the deviation report what the CLI would (the plots are tested there)."""
-    import bladerecon.deviation_report as dr
+    import bladerecon.report.deviation as dr
 
     *_, analysis = chain
     seen = {}
     monkeypatch.setattr(dr, "write_deviation_report",
                         lambda folder, summary, result, nominal, section, names, surface=None:
                         seen.update(summary=summary, n=len(result.points), surface=surface, names=names))
-    summary = bro.write_analysis_report(analysis, str(tmp_path / "report"))
+    summary = dr.write_analysis_report(analysis, str(tmp_path / "report"))
     assert summary is seen["summary"] and seen["n"] == analysis.PointCount and seen["surface"] is not None
     for key, value in bro.DeviationAnalysis.stats(analysis).items():
         assert summary[key] == pytest.approx(value, rel=1e-12), key
     assert summary["alignment"]["mode"] == "none" and summary["units"] == "mm"
     with pytest.raises(BladeReconError, match="does not exist"):
-        bro.write_analysis_report(analysis, str(tmp_path / "no" / "such" / "report"))
+        dr.write_analysis_report(analysis, str(tmp_path / "no" / "such" / "report"))
 
 
 def test_surface_follows_its_points(tmp_path):

@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 from scipy.interpolate import make_interp_spline, make_lsq_spline
 
-from bladerecon.core.bspline import centripetal_parameters, chord_parameters, closed_parameters, curve_derivatives
+from bladerecon.core.geometry.bspline import centripetal_parameters, chord_parameters, closed_parameters, curve_derivatives
 from bladerecon.core.errors import BladeReconError
-from bladerecon.core.fitting import (
+from bladerecon.core.geometry.fitting import (
     approximate_curve,
     interpolate_closed_curve,
     interpolate_curve,
@@ -16,7 +16,7 @@ from bladerecon.core.fitting import (
     smoothing_matrix,
     uniform_periodic_knots,
 )
-from bladerecon.core.spline import full_knot_vector
+from bladerecon.core.geometry.spline import full_knot_vector
 
 
 def _helix(n):
@@ -87,7 +87,7 @@ def test_periodic_least_squares_recovers_ellipse_and_smoothing_reduces_energy():
 
 def test_smoothing_matrix_is_exact_bending_energy_of_a_parabola():
     # C(u) = (u, u^2, 0) as a clamped cubic: ∫|C''|² du = 4 on [0, 1]
-    from bladerecon.core.fitting import interpolate_curve
+    from bladerecon.core.geometry.fitting import interpolate_curve
     u = np.linspace(0, 1, 9)
     c = interpolate_curve(np.c_[u, u**2, 0 * u], params=u)
     E = smoothing_matrix(c.knots, c.mults, 3, False, c.n_poles).toarray()

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from bladerecon.core.errors import BladeReconError
-from bladerecon.core.instrument import (Acquisition, Calibration, Record, SequenceTracker, checksum,
+from bladerecon.core.io.instrument import (Acquisition, Calibration, Record, SequenceTracker, checksum,
                                         format_record, load_calibration, parse_line)
 
 

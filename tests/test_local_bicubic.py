@@ -6,12 +6,12 @@ from math import comb
 import numpy as np
 import pytest
 
-from bladerecon.core.bspline import evaluate_surface, surface_derivatives
-from bladerecon.core.local_bicubic import bezier_patches, local_bicubic_surface
-from bladerecon.core.nongrid import fit_row_curve, resample_rows
-from bladerecon.core.projection import project_points_to_surface
-from bladerecon.core.sample_blade import t_at_length_fraction
-from bladerecon.core.surface import closed_grid_parameters, span_parameters
+from bladerecon.core.geometry.bspline import evaluate_surface, surface_derivatives
+from bladerecon.core.surface.local_bicubic import bezier_patches, local_bicubic_surface
+from bladerecon.core.surface.nongrid import fit_row_curve, resample_rows
+from bladerecon.core.geometry.projection import project_points_to_surface
+from bladerecon.samples.blade import t_at_length_fraction
+from bladerecon.core.surface.skinning import closed_grid_parameters, span_parameters
 from realdata_fixtures import BLADE
 
 Z = np.array([0.0, 0.0, 1.0])

@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 from scipy.interpolate import make_lsq_spline
 
-from bladerecon.core.bspline import approximation_knots, chord_parameters, evaluate_surface
+from bladerecon.core.geometry.bspline import approximation_knots, chord_parameters, evaluate_surface
 from bladerecon.core.errors import BladeReconError
-from bladerecon.core.nongrid import (
+from bladerecon.core.surface.nongrid import (
     check_rows_overlap,
     fit_nongrid,
     fit_row_curve,
@@ -15,8 +15,8 @@ from bladerecon.core.nongrid import (
     parse_poles,
     periodic_approximation_knots,
 )
-from bladerecon.core.projection import project_points_to_surface
-from bladerecon.core.spline import BSplineSurface
+from bladerecon.core.geometry.projection import project_points_to_surface
+from bladerecon.core.geometry.spline import BSplineSurface
 from realdata_fixtures import BLADE, nongrid_counts, nongrid_rows
 
 AXIS = np.array([0.0, 0.0, 1.0])
@@ -75,7 +75,7 @@ def test_hierarchical_fit_reproduces_a_surface_of_its_own_space():
     rng = np.random.default_rng(0)
     u = np.linspace(0.0, 1.0, 80)
     v = np.linspace(0.0, 1.0, 15)
-    from bladerecon.core.fitting import knots_from_full
+    from bladerecon.core.geometry.fitting import knots_from_full
     uk, um = knots_from_full(approximation_knots(u, 3, 12))
     vk, vm = knots_from_full(approximation_knots(v, 3, 6))
     truth = BSplineSurface(rng.normal(size=(12, 6, 3)), uk, um, vk, vm, 3, 3)

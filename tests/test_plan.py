@@ -15,12 +15,12 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from bladerecon.core.bspline import evaluate_curve, evaluate_surface
+from bladerecon.core.geometry.bspline import evaluate_curve, evaluate_surface
 from bladerecon.core.errors import BladeReconError
-from bladerecon.core.fitting import interpolate_closed_curve
-from bladerecon.core.plan import plan_section
+from bladerecon.core.geometry.fitting import interpolate_closed_curve
+from bladerecon.core.sections.plan import plan_section
 from bladerecon.core.reconstruct import reconstruct
-from bladerecon.core.sample_blade import SampleBlade, t_at_length_fraction
+from bladerecon.samples.blade import SampleBlade, t_at_length_fraction
 
 ROOT = Path(__file__).resolve().parents[1]
 BLADE = SampleBlade()
@@ -141,14 +141,14 @@ def test_cli_plan_needs_heights_for_a_shape():
 
 
 def test_core_plane_cut_of_the_nominal_agrees_with_occ_slice():
-    """bladerecon.core.plan.cut_surface against Part.Shape.slice on the sample nominal STEP."""
+    """bladerecon.core.sections.plan.cut_surface against Part.Shape.slice on the sample nominal STEP."""
     from bladerecon.fc.freecad_env import import_freecad
     FreeCAD, _ = import_freecad()
     from bladerecon.fc.compare import _single_bspline_face
     from bladerecon.fc.convert import from_part_surface
     from bladerecon.fc.export import read_shape
-    from bladerecon.core.plan import cut_surface
-    from bladerecon.core.plan import _segment_distance
+    from bladerecon.core.sections.plan import cut_surface
+    from bladerecon.core.sections.plan import _segment_distance
 
     shape = read_shape(ROOT / "resources" / "sample" / "nominal.step")
     surf = from_part_surface(_single_bspline_face(shape).Surface)
@@ -191,7 +191,7 @@ def test_plan_for_surface_brings_the_surface_within_the_tolerance_everywhere():
     """Seed 000's plan bounds each section's cubic (0.05 mm); the surface between the
     sections strays to ~0.058 mm. plan_for_surface replans tighter until the surface - judged
     here against the analytic blade, 41 heights - is within 0.05 mm, keeping >= 95 % compression."""
-    from bladerecon.core.plan import plan_for_surface
+    from bladerecon.core.sections.plan import plan_for_surface
 
     dense = [_dense(h) for h in HEIGHTS]
     calls = []

@@ -1,4 +1,4 @@
-"""Point -> surface / curve minimum distance (seed 001 §2 eqs. 10-11): bladerecon.core.projection.
+"""Point -> surface / curve minimum distance (seed 001 §2 eqs. 10-11): bladerecon.core.geometry.projection.
 
 Checked against closed forms, orthogonality, dense brute force (then polished by a local
 Newton from the brute-force optimum, so that a wrong root shows as a larger distance),
@@ -15,15 +15,15 @@ from scipy.interpolate import BSpline
 from scipy.optimize import minimize_scalar
 from scipy.spatial import cKDTree
 
-from bladerecon.core import projection as proj
-from bladerecon.core.bspline import curve_curvature, curve_derivatives, evaluate_surface, surface_derivatives
+from bladerecon.core.geometry import projection as proj
+from bladerecon.core.geometry.bspline import curve_curvature, curve_derivatives, evaluate_surface, surface_derivatives
 from bladerecon.core.errors import BladeReconError
-from bladerecon.core.projection import (
+from bladerecon.core.geometry.projection import (
     distance_stats,
     project_points_to_curve,
     project_points_to_surface,
 )
-from bladerecon.core.spline import BSplineCurve, BSplineSurface
+from bladerecon.core.geometry.spline import BSplineCurve, BSplineSurface
 
 HUB_Z = 200.0
 
@@ -387,7 +387,7 @@ def test_feet_round_a_thin_edge_are_found(monkeypatch):
     """Near a centre of curvature of the trailing edge the closest foot can lie round the
     edge from the one the grid start leads to; the restarts moved round the edge find it.
     Referee: dense sampling of the edge region polished by local Newton."""
-    from bladerecon.core.sample_blade import SampleBlade, nominal_surface
+    from bladerecon.samples.blade import SampleBlade, nominal_surface
 
     s = nominal_surface(SampleBlade())
     ours = project_points_to_surface(s, _TE_POINTS)
@@ -411,7 +411,7 @@ def test_feet_round_a_thin_edge_are_found(monkeypatch):
 
 
 def _nominal():
-    from bladerecon.core.sample_blade import SampleBlade, nominal_surface
+    from bladerecon.samples.blade import SampleBlade, nominal_surface
 
     return nominal_surface(SampleBlade())
 

@@ -1,4 +1,4 @@
-"""bladerecon.core.readers: formats, bad input, speed (plain pytest, no FreeCAD)."""
+"""bladerecon.core.io.readers: formats, bad input, speed (plain pytest, no FreeCAD)."""
 from __future__ import annotations
 
 import os
@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from bladerecon.core.errors import BladeReconError
-from bladerecon.core.readers import PointSet, read_points, write_points_csv
+from bladerecon.core.io.readers import PointSet, read_points, write_points_csv
 
 DATA = Path(__file__).resolve().parent / "data"
 ROTOR37 = DATA / "nasa_rotor37" / "rotor37_sections_xyz_mm.txt"
@@ -319,7 +319,7 @@ def _timed(fn, *args) -> float:
 
 
 def test_core_modules_do_not_import_freecad():
-    code = ("import sys, bladerecon.core.readers, bladerecon.core.sections; "
+    code = ("import sys, bladerecon.core.io.readers, bladerecon.core.sections.ordering; "
             "bad = [m for m in sys.modules "
             "       if m.split('.')[0] in ('FreeCAD', 'FreeCADGui', 'Part')]; "
             "print(bad); sys.exit(1 if bad else 0)")

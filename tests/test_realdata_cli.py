@@ -5,7 +5,7 @@ import json
 
 import numpy as np
 
-from bladerecon.core.readers import write_points_csv
+from bladerecon.core.io.readers import write_points_csv
 from realdata_fixtures import RUNS, clean_section, nongrid_counts, nongrid_rows, with_bad_runs
 from test_cli import DATA, run
 

@@ -11,13 +11,13 @@ import numpy as np
 import pytest
 
 from bladerecon.core.errors import BladeReconError
-from bladerecon.core.pairing import reconstruct_paired
-from bladerecon.core.readers import read_points
+from bladerecon.core.surface.pairing import reconstruct_paired
+from bladerecon.core.io.readers import read_points
 from bladerecon.core.reconstruct import reconstruct
-from bladerecon.core.sample_blade import SampleBlade, dense_truth, sample_sections
-from bladerecon.core.section_curves import choose_method, estimate_noise
-from bladerecon.core.sections import build_sections
-from bladerecon.core.projection import project_points_to_surface
+from bladerecon.samples.blade import SampleBlade, dense_truth, sample_sections
+from bladerecon.core.surface.section_curves import choose_method, estimate_noise
+from bladerecon.core.sections.ordering import build_sections
+from bladerecon.core.geometry.projection import project_points_to_surface
 
 DATA = Path(__file__).resolve().parent / "data"
 Z = np.array([0.0, 0.0, 1.0])
@@ -88,7 +88,7 @@ def test_interpolation_passes_through_every_point_and_le_is_anchored():
     assert proj.distance.max() < 0.001
     # u = 0 is the leading edge on every section: the iso-u line links the true LEs
     heights = np.linspace(0, 1, 6)
-    from bladerecon.core.bspline import evaluate_surface
+    from bladerecon.core.geometry.bspline import evaluate_surface
     le_surface = evaluate_surface(rec.surface, np.zeros(6), rec.v_params)
     le_true = np.array([np.asarray(BLADE.le_te(h)[0]).reshape(3) for h in heights])
     assert np.linalg.norm(le_surface - le_true, axis=1).max() < 0.02
@@ -111,8 +111,8 @@ def test_scrambled_and_reversed_input_give_the_same_surface():
 
     (LE/TE are a fixed point of "chord from the ends, ends where the tangent is
     perpendicular to the chord", so they do not depend on where the curve was sampled.)"""
-    from bladerecon.core.bspline import evaluate_surface
-    from bladerecon.core.readers import PointSet
+    from bladerecon.core.geometry.bspline import evaluate_surface
+    from bladerecon.core.io.readers import PointSet
 
     secs = sample_sections(BLADE, 4, 300, "uniform", noise=0.0, seed=7)
     rng = np.random.default_rng(0)

@@ -6,7 +6,7 @@ import pytest
 from scipy.optimize import minimize_scalar
 
 from bladerecon.core.errors import BladeReconError
-from bladerecon.core.sample_blade import (
+from bladerecon.samples.blade import (
     SampleBlade,
     dense_truth,
     nominal_grid,

@@ -6,7 +6,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bladerecon.core.sample_blade import SampleBlade, nominal_surface
+from bladerecon.samples.blade import SampleBlade, nominal_surface
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 
 from bladerecon.core.errors import BladeReconError
-from bladerecon.core.readers import read_points
-from bladerecon.core.sample_blade import SampleBlade, sample_sections
-from bladerecon.core.section_parameters import fit_circle, measure_section, segment_sections
-from bladerecon.core.sections import build_sections
+from bladerecon.core.io.readers import read_points
+from bladerecon.samples.blade import SampleBlade, sample_sections
+from bladerecon.core.sections.parameters import fit_circle, measure_section, segment_sections
+from bladerecon.core.sections.ordering import build_sections
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = Path(__file__).resolve().parent / "data"

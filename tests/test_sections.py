@@ -1,4 +1,4 @@
-"""bladerecon.core.sections: ordering, orientation, span order, bad sections (no FreeCAD)."""
+"""bladerecon.core.sections.ordering: ordering, orientation, span order, bad sections (no FreeCAD)."""
 from __future__ import annotations
 
 import time
@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from bladerecon.core.errors import BladeReconError
-from bladerecon.core.readers import PointSet, read_points, write_points_csv
-from bladerecon.core.sections import build_sections, section_plane_frame
+from bladerecon.core.io.readers import PointSet, read_points, write_points_csv
+from bladerecon.core.sections.ordering import build_sections, section_plane_frame
 
 DATA = Path(__file__).resolve().parent / "data"
 ROTORS = {

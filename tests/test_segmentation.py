@@ -7,13 +7,13 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from bladerecon.core.bspline import evaluate_curve
+from bladerecon.core.geometry.bspline import evaluate_curve
 from bladerecon.core.errors import BladeReconError
-from bladerecon.core.readers import read_points
-from bladerecon.core.sample_blade import SampleBlade, sample_sections
-from bladerecon.core.section_parameters import segment_sections
-from bladerecon.core.sections import build_sections
-from bladerecon.core.segmentation import (
+from bladerecon.core.io.readers import read_points
+from bladerecon.samples.blade import SampleBlade, sample_sections
+from bladerecon.core.sections.parameters import segment_sections
+from bladerecon.core.sections.ordering import build_sections
+from bladerecon.core.sections.segmentation import (
     LE, PRESSURE, SUCTION, TE, ThroatSpec, section_frame, segment_section, throat_chord_ratio,
 )
 
@@ -127,8 +127,8 @@ def test_section_frame_x_axis_is_global_x_for_a_z_plane():
 # ----------------------------------------------------------------- segment fitting with continuity
 from scipy.interpolate import BSpline  # noqa: E402
 
-from bladerecon.core.segment_fit import fit_segmented, rebuild_sections, unconstrained_segments  # noqa: E402
-from bladerecon.core.spline import full_knot_vector  # noqa: E402
+from bladerecon.core.sections.edge_fits import fit_segmented, rebuild_sections, unconstrained_segments  # noqa: E402
+from bladerecon.core.geometry.spline import full_knot_vector  # noqa: E402
 
 
 def _scipy_end_geometry(c, at_end):

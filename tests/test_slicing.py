@@ -6,10 +6,10 @@ import pytest
 from scipy.spatial import cKDTree
 
 from bladerecon.core.errors import BladeReconError
-from bladerecon.core.projection import project_points_to_surface
+from bladerecon.core.geometry.projection import project_points_to_surface
 from bladerecon.core.reconstruct import reconstruct
-from bladerecon.core.sections import build_sections
-from bladerecon.core.slicing import (
+from bladerecon.core.sections.ordering import build_sections
+from bladerecon.core.sections.slicing import (
     plane_positions,
     read_cloud,
     slice_cylinders,
@@ -17,7 +17,7 @@ from bladerecon.core.slicing import (
     slices_to_pointset,
 )
 from realdata_fixtures import BLADE
-from bladerecon.core.sample_blade import t_at_length_fraction
+from bladerecon.samples.blade import t_at_length_fraction
 
 AXIS = np.array([0.0, 0.0, 1.0])
 
@@ -117,7 +117,7 @@ def test_rotor67_cloud_against_the_nasa_section_table():
     frame up to 0.01 mm / 0.002° (bench_realdata fits it): compared here as they are."""
     from pathlib import Path
 
-    from bladerecon.core.readers import read_points
+    from bladerecon.core.io.readers import read_points
 
     data = Path(__file__).resolve().parent / "data"
     cloud_file = data / "parablade_r67_cloud" / "NASA_R67_MoveSurface.txt"

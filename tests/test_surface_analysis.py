@@ -1,12 +1,12 @@
-"""Curvatures, principal directions, combs and zebra: bladerecon.core.surface_analysis."""
+"""Curvatures, principal directions, combs and zebra: bladerecon.core.analysis.surface_analysis."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from bladerecon.core.sample_blade import SampleBlade, nominal_surface
-from bladerecon.core.spline import BSplineSurface
-from bladerecon.core.surface_analysis import (
+from bladerecon.samples.blade import SampleBlade, nominal_surface
+from bladerecon.core.geometry.spline import BSplineSurface
+from bladerecon.core.analysis.surface_analysis import (
     curvature_from_derivatives,
     section_curvature,
     surface_curvature,

@@ -6,8 +6,8 @@ import pytest
 from scipy.spatial import cKDTree
 
 from bladerecon.core.errors import BladeReconError
-from bladerecon.core.sample_blade import t_at_length_fraction
-from bladerecon.core.surface_fairing import fair_grid_alternating, fair_open_curve, repair_regions
+from bladerecon.samples.blade import t_at_length_fraction
+from bladerecon.core.surface.fairing import fair_grid_alternating, fair_open_curve, repair_regions
 from realdata_fixtures import BLADE
 
 H = np.linspace(0.0, 1.0, 11)

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from scipy.interpolate import LSQBivariateSpline
 
-from bladerecon.core import tspline as ts
+from bladerecon.core.surface import tspline as ts
 from bladerecon.core.errors import BladeReconError
 
 
@@ -239,7 +239,7 @@ def test_sewn_shell_has_no_gaps(part, refined_sinc, tmp_path):
 
 # ----------------------------------------------------------------------------- CLI
 def test_cli_zmap_and_degenerate(part, tmp_path, capsys):
-    from bladerecon.cli import main
+    from bladerecon.cli.main import main
 
     src = tmp_path / "sinc.xyz"
     np.savetxt(src, _sinc_points(61))
@@ -258,8 +258,8 @@ def test_cli_zmap_and_degenerate(part, tmp_path, capsys):
 
 @pytest.fixture(scope="module")
 def small_blade_csv(tmp_path_factory):
-    from bladerecon.core.readers import write_points_csv
-    from bladerecon.core.sample_blade import SampleBlade, sample_sections
+    from bladerecon.core.io.readers import write_points_csv
+    from bladerecon.samples.blade import SampleBlade, sample_sections
 
     secs = sample_sections(SampleBlade(), n_sections=5, n_points=300, noise=0.0)
     src = tmp_path_factory.mktemp("blade") / "blade.csv"
@@ -268,7 +268,7 @@ def small_blade_csv(tmp_path_factory):
 
 
 def test_cli_blade_uses_sections(part, small_blade_csv, tmp_path, capsys):
-    from bladerecon.cli import main
+    from bladerecon.cli.main import main
     from bladerecon.fc.export import read_shape
 
     out = tmp_path / "blade.step"
@@ -288,7 +288,7 @@ def test_cli_blade_uses_sections(part, small_blade_csv, tmp_path, capsys):
 
 def test_blade_patches_evaluate_like_the_tspline_in_occ(part, small_blade_csv):
     from bladerecon.fc.tspline_export import occ_evaluate, patch_faces, shell_gaps
-    from bladerecon.tspline_cli import fit_point_file
+    from bladerecon.core.surface.tspline_job import fit_point_file
 
     fit, patches, _ = fit_point_file(str(small_blade_csv), 0.05)
     surfaces = [f.Surface for f in patch_faces(patches)]
@@ -364,8 +364,8 @@ def test_blade_shell_closes_at_the_seam(part, src, tmp_path, capsys):
     """The exported blade shell, measured by OCC: no gap at the seam (<= 1e-6 mm), free
     edges only on hub and tip, C1 across the seam, and every measured point within the
     tolerance of the STEP shell read back (OCC distances at about 100 of the points)."""
-    from bladerecon.cli import main
-    from bladerecon.core.readers import read_points
+    from bladerecon.cli.main import main
+    from bladerecon.core.io.readers import read_points
     from bladerecon.fc.export import read_shape
     from bladerecon.fc.occ_measure import occ_distances
     out = tmp_path / "blade.step"

@@ -83,6 +83,7 @@ try:
     result["icons"] = {{c: FreeCADGui.Command.get(c).getInfo()["pixmap"] for c in result["commands"]}} \
         if hasattr(FreeCADGui, "Command") and hasattr(FreeCADGui.Command, "get") else {{}}
 
+    import bladerecon.gui.actions as actions
     import bladerecon.gui.commands as commands
     import bladerecon.fc.objects as bro
     shown = []
@@ -93,11 +94,11 @@ try:
     result["active_empty"] = {{n: active(n) for n in names}}
 
     # a missing file: one message, no traceback, the document untouched
-    commands.import_points(os.path.join(out_dir, "missing.csv"))
+    actions.import_points(os.path.join(out_dir, "missing.csv"))
     result["import_error"] = list(shown)
     result["objects_after_error"] = len(doc.Objects)
 
-    points = commands.import_points(os.path.join(sample, "measured.csv"))
+    points = actions.import_points(os.path.join(sample, "measured.csv"))
     step("imported")
     result["points"] = {{"type": points.Proxy.Type, "count": points.PointCount, "sections": points.SectionCount,
                         "units": points.Units, "source": points.SourceFile, "mode": points.ViewObject.DisplayMode}}
@@ -117,7 +118,7 @@ try:
     panel.accept()
     surface = panel.result
     step("reconstructed")
-    sections = commands.analyse_sections(points)
+    sections = actions.analyse_sections(points)
     step("sections")
     result["surface"] = {{"type": surface.Proxy.Type, "u_poles": surface.UPoles, "v_poles": surface.VPoles,
                          "method": surface.MethodUsed, "fit_max": surface.FitMax, "faces": len(surface.Shape.Faces),
@@ -154,13 +155,13 @@ try:
     far.Shape = Part.makeBox(10, 10, 10, FreeCAD.Vector(5000, 5000, 5000))
     far.Shape.exportStep(os.path.join(out_dir, "far.step"))     # the same nominal for the CLI
     n_shown = len(shown)
-    bad = commands.compare_with_nominal(points, far, None, "none", 0.03)
+    bad = actions.compare_with_nominal(points, far, None, "none", 0.03)
     result["far_nominal"] = {{"messages": shown[n_shown:], "status": bad.Status if bad else None,
                              "state": list(bad.State) if bad else None}}
     doc.removeObject(bad.Name)
     doc.removeObject(far.Name)
     nominal.ViewObject.Visibility = False
-    analysis = commands.compare_with_nominal(points, nominal, surface, "none", 0.03)
+    analysis = actions.compare_with_nominal(points, nominal, surface, "none", 0.03)
     step("compared")
     result["stats"] = stats(analysis)
     result["analysis"] = {{"status": analysis.Status, "mode": analysis.ViewObject.DisplayMode,
@@ -187,9 +188,9 @@ try:
         FreeCADGui.runCommand("BladeRecon_DeviationMap")
         FreeCADGui.updateGui()
         result["map_toggle"].append((analysis.ViewObject.Visibility, surface.ViewObject.Visibility))
-    commands.show_deviation_map(analysis, "Points")
+    actions.show_deviation_map(analysis, "Points")
     shot("deviation_points.png")
-    commands.show_deviation_map(analysis, None)
+    actions.show_deviation_map(analysis, None)
     result["map_off"] = {{"analysis_visible": analysis.ViewObject.Visibility, "surface_visible": surface.ViewObject.Visibility}}
     from bladerecon.gui.task_panels import ComparePanel
     cpanel = ComparePanel(points, nominal, surface)
@@ -197,7 +198,7 @@ try:
     cpanel.form.alignment.setCurrentText("rigid")
     cpanel.form.robust.setChecked(True)
     opts = cpanel.options()
-    fitted = commands.compare_with_nominal(points, nominal, None, opts["alignment"], opts["tolerance"],
+    fitted = actions.compare_with_nominal(points, nominal, None, opts["alignment"], opts["tolerance"],
                                            robust=opts["robust"])
     result["robust"] = {{"enabled_at_none": robust_at_none, "option": opts["robust"], "status": fitted.Status,
                         "property": fitted.RobustFit, "weighted_out": fitted.PointsWeightedOut,
@@ -220,20 +221,20 @@ try:
                        "dark": float(np.mean(zebra_rgb[:, 0] < 0.3)), "light": float(np.mean(zebra_rgb[:, 0] > 0.7))}}
     shot("zebra.png")
     step("shot_c")
-    commands.set_surface_analysis(surface, "Curvature", curvature="Mean")
+    actions.set_surface_analysis(surface, "Curvature", curvature="Mean")
     result["curvature_mode"] = surface.ViewObject.DisplayMode
     shot("curvature.png")
     mean_rgb = surface.ViewObject.Proxy.curvature.colours()
-    commands.set_surface_analysis(surface, "Curvature", curvature="Gaussian")
+    actions.set_surface_analysis(surface, "Curvature", curvature="Gaussian")
     result["gaussian_vs_mean"] = float(np.abs(surface.ViewObject.Proxy.curvature.colours() - mean_rgb).max())
-    commands.set_surface_analysis(surface, "Zebra")
+    actions.set_surface_analysis(surface, "Zebra")
 
     # Write report: the command's error path here (the report itself: tests/test_fc_objects.py,
     # tests/test_deviation.py; its plots take a minute on a busy machine)
     n_shown = len(shown)
-    result["report_error"] = [commands.write_report(analysis, os.path.join(out_dir, "no", "such", "report"))] \
+    result["report_error"] = [actions.write_report(analysis, os.path.join(out_dir, "no", "such", "report"))] \
         + shown[n_shown:]
-    result["step_written"] = commands.export_step(surface, os.path.join(out_dir, "surface.step"))
+    result["step_written"] = actions.export_step(surface, os.path.join(out_dir, "surface.step"))
     step("outputs")
 
     # replayable: the console shows the lines the commands ran; run them again in a fresh document
@@ -253,7 +254,7 @@ try:
     FreeCAD.closeDocument("Replay")
     FreeCAD.setActiveDocument(doc.Name)
 
-    commands.show_deviation_map(analysis, "Points")     # map on the points, zebra on the surface
+    actions.show_deviation_map(analysis, "Points")     # map on the points, zebra on the surface
     path = os.path.join(out_dir, "blade.FCStd")
     doc.saveAs(path)
     FreeCAD.closeDocument(doc.Name)

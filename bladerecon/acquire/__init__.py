@@ -2,5 +2,5 @@
 
 ``reader``: journal-first reading with reconnection; ``simulator``: a controller that
 plays a measurement of the sample blade on a pseudo-terminal. The protocol, the parser
-and the calibration are pure Python/numpy in :mod:`bladerecon.core.instrument`.
+and the calibration are pure Python/numpy in :mod:`bladerecon.core.io.instrument`.
 """

@@ -20,13 +20,19 @@ import time
 from pathlib import Path
 from typing import Callable
 
-from ..core.errors import BladeReconError
-from ..core.instrument import Acquisition, Calibration
+from bladerecon.core.errors import BladeReconError
+from bladerecon.core.io.instrument import Acquisition, Calibration
 
-__all__ = ["InstrumentReader", "replay", "open_port"]
+__all__ = ["InstrumentReader", "replay", "open_port", "default_journal"]
 
 _POLL = 0.02  # s to sleep after a small chunk: keeps the CPU load low at 115200 baud
 _BIG_CHUNK = 512  # 115200 baud brings ~230 bytes per _POLL: sleep only then
+
+
+def default_journal(output: str) -> str:
+    """The journal beside ``output`` when none is named: ``OUTPUT-stem.<UTC time>.journal``."""
+    stem = os.path.splitext(output)[0]
+    return f"{stem}.{time.strftime('%Y%m%dT%H%M%S', time.gmtime())}.journal"
 
 
 def _serial():

@@ -22,8 +22,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..core.errors import BladeReconError
-from ..core.instrument import Calibration, format_record
+from bladerecon.core.errors import BladeReconError
+from bladerecon.core.io.instrument import Calibration, format_record
 
 __all__ = ["Faults", "MeasurementPlan", "plan_measurement", "PtyLink", "PortLink", "play"]
 
@@ -336,7 +336,7 @@ def play(plan: MeasurementPlan, link, sent_path: str | None = None, rate: float 
 def sample_plan(n_sections: int = 6, n_points: int = 2000, noise: float = 0.002, seed: int = 0,
                 calibration: Calibration | None = None, faults: Faults = Faults(),
                 direct: bool = False) -> MeasurementPlan:
-    """A measurement of :class:`~bladerecon.core.sample_blade.SampleBlade` (mm)."""
-    from ..core.sample_blade import SampleBlade, sample_sections
+    """A measurement of :class:`~bladerecon.samples.blade.SampleBlade` (mm)."""
+    from bladerecon.samples.blade import SampleBlade, sample_sections
     sections = sample_sections(SampleBlade(), n_sections, n_points, "uniform", noise, seed)
     return plan_measurement(sections, calibration or Calibration(), faults, direct)

@@ -12,16 +12,16 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .errors import BladeReconError
-from .section_curves import (
+from bladerecon.core.errors import BladeReconError
+from bladerecon.core.surface.section_curves import (
     MethodChoice,
     SectionCurve,
     choose_method,
     fit_section_approximate,
     fit_section_interpolate,
 )
-from .spline import BSplineSurface
-from .surface import (
+from bladerecon.core.geometry.spline import BSplineSurface
+from bladerecon.core.surface.skinning import (
     AnchoredSection,
     anchor_section,
     common_parameter,
@@ -31,7 +31,7 @@ from .surface import (
     span_parameters,
     t_to_s,
 )
-from .bspline import evaluate_curve
+from bladerecon.core.geometry.bspline import evaluate_curve
 
 __all__ = ["Reconstruction", "reconstruct", "first_point_edge_hint", "METHODS", "DEFAULT_REFIT_TOL"]
 
@@ -93,7 +93,7 @@ def reconstruct(section_points: list[np.ndarray], span_axis: np.ndarray, method:
     ``section_points``: one (n_k, 3) array per section, hub to tip, each ordered around the
     profile counter-clockwise about ``span_axis`` (as ``build_sections`` delivers them).
     ``method``: ``auto`` (chosen from spacing against noise, see
-    :func:`~bladerecon.core.section_curves.choose_method`), ``interpolate`` or
+    :func:`~bladerecon.core.surface.section_curves.choose_method`), ``interpolate`` or
     ``approximate``; ``tolerance`` (mm) is the largest distance a measured point may have
     from the surface with ``approximate`` (fewest poles that keep it).
     ``first_point_is_measured``: the first section starts where the measurement started (not

@@ -3,6 +3,6 @@
 Modules here import FreeCAD and Part (through :func:`bladerecon.fc.freecad_env.import_freecad`,
 which finds FreeCAD's lib folder), never FreeCADGui.
 """
-from .freecad_env import import_freecad
+from bladerecon.fc.freecad_env import import_freecad
 
 __all__ = ["import_freecad"]

@@ -2,7 +2,7 @@
 
 Stage "analysis" of the pipeline (seed 000 §2.4 shape error; seed 001 §2 minimum distance).
 A nominal that is one non-rational B-spline face goes through the core's vectorised
-projection (:mod:`bladerecon.core.projection`); anything else through OpenCASCADE per point
+projection (:mod:`bladerecon.core.geometry.projection`); anything else through OpenCASCADE per point
 (:mod:`bladerecon.fc.occ_measure`). Sign: + where the point is outside the nominal
 (material in excess), − inside.
 """
@@ -12,10 +12,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from bladerecon.core.bspline import evaluate_surface
+from bladerecon.core.geometry.bspline import evaluate_surface
 from bladerecon.core.errors import BladeReconError
-from bladerecon.core.projection import project_points_to_surface
-from bladerecon.core.spline import BSplineSurface
+from bladerecon.core.geometry.projection import project_points_to_surface
+from bladerecon.core.geometry.spline import BSplineSurface
 
 __all__ = ["Deviation", "deviation_to_nominal", "surface_samples", "outward_sign"]
 
@@ -49,7 +49,7 @@ def outward_sign(surface: BSplineSurface) -> float:
     Majority vote over a grid: the normal should point away from the centroid of its own
     iso-v section. (A blade section is not star-shaped, but most of it faces away.)
     """
-    from bladerecon.core.bspline import surface_derivatives
+    from bladerecon.core.geometry.bspline import surface_derivatives
 
     u = np.linspace(*surface.u_domain, 64, endpoint=False)
     v = np.linspace(*surface.v_domain, 9)
@@ -80,9 +80,9 @@ def _single_bspline_face(shape):
 
 def deviation_to_nominal(points: np.ndarray, nominal) -> Deviation:
     """Signed distance (mm) of each point to the nominal (a path or a Part.Shape)."""
-    from .convert import from_part_surface
-    from .export import read_shape
-    from .occ_measure import occ_distances
+    from bladerecon.fc.convert import from_part_surface
+    from bladerecon.fc.export import read_shape
+    from bladerecon.fc.occ_measure import occ_distances
 
     shape = read_shape(nominal) if isinstance(nominal, (str, bytes)) or hasattr(nominal, "__fspath__") else nominal
     pts = np.asarray(points, dtype=float)

@@ -11,9 +11,9 @@ from typing import Any
 import numpy as np
 
 from bladerecon.core.errors import BladeReconError
-from bladerecon.core.spline import BSplineCurve, BSplineSurface
+from bladerecon.core.geometry.spline import BSplineCurve, BSplineSurface
 
-from .freecad_env import import_freecad
+from bladerecon.fc.freecad_env import import_freecad
 
 __all__ = ["to_part_surface", "to_part_curve", "from_part_surface", "from_part_curve", "make_face", "compound"]
 

@@ -7,12 +7,12 @@ foot over all faces wins:
 
 * an untrimmed, non-rational B-spline face (a blade surface as CAD writes it) goes through
   the core's vectorised exact projection (seed 001 eq. 10 by Newton from a k-d tree start,
-  :mod:`bladerecon.core.projection`): ~1M points in a few seconds;
+  :mod:`bladerecon.core.geometry.projection`): ~1M points in a few seconds;
 * every other face (planes, cylinders, trimmed faces) through OpenCASCADE's
   ``distToShape`` point by point, only for the points whose distance to the face's bounding
   box is less than their best distance so far (a cap face is tried only near its end).
 
-Alignment (:func:`bladerecon.core.alignment.best_fit`) uses the same measure as its
+Alignment (:func:`bladerecon.core.analysis.alignment.best_fit`) uses the same measure as its
 ``project`` callback. Points far from every face - wrong units or frame - are refused with
 a hint before any of this work.
 """
@@ -26,12 +26,12 @@ from typing import Any
 
 import numpy as np
 
-from bladerecon.core.alignment import Alignment, apply_transform, best_fit
+from bladerecon.core.analysis.alignment import Alignment, apply_transform, best_fit
 from bladerecon.core.errors import BladeReconError
-from bladerecon.core.projection import distance_stats, project_points_to_surface
-from bladerecon.core.spline import BSplineSurface
+from bladerecon.core.geometry.projection import distance_stats, project_points_to_surface
+from bladerecon.core.geometry.spline import BSplineSurface
 
-from .freecad_env import import_freecad
+from bladerecon.fc.freecad_env import import_freecad
 
 __all__ = ["PointDeviation", "Nominal", "DeviationResult", "read_measured", "load_nominal",
            "check_units", "measure_deviation", "deviation_summary", "write_deviation_csv"]
@@ -76,7 +76,7 @@ def read_measured(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray | Non
 
     Returns (points, section index per point or None, section names).
     """
-    from bladerecon.core.readers import read_points
+    from bladerecon.core.io.readers import read_points
 
     try:
         ps = read_points(path)
@@ -120,8 +120,8 @@ def _read_unlabelled(source: str) -> np.ndarray:
 # --------------------------------------------------------------------------- nominal
 def _core_surface(face: Any) -> BSplineSurface | None:
     """The face's surface as core data if it is an untrimmed non-rational B-spline, else None."""
-    from .convert import from_part_surface
-    from .occ_measure import _has_natural_bounds
+    from bladerecon.fc.convert import from_part_surface
+    from bladerecon.fc.occ_measure import _has_natural_bounds
 
     surf = face.Surface
     if type(surf).__name__ != "BSplineSurface" or surf.isURational() or surf.isVRational():
@@ -135,8 +135,8 @@ class Nominal:
     """A nominal shape ready for measuring: core B-spline faces and OCC faces (mm)."""
 
     def __init__(self, shape: Any, name: str = "nominal"):
-        from .compare import outward_sign
-        from .occ_measure import _shape_outward_signs
+        from bladerecon.fc.compare import outward_sign
+        from bladerecon.fc.occ_measure import _shape_outward_signs
 
         self.shape, self.name = shape, name
         faces = list(shape.Faces)
@@ -190,7 +190,7 @@ class Nominal:
 
     @staticmethod
     def _measure_occ_face(P, k, f, osign, best, signed, foot, normal, face) -> None:
-        from .occ_measure import _normal_at_foot
+        from bladerecon.fc.occ_measure import _normal_at_foot
 
         box = f.BoundBox
         lo = np.array([box.XMin, box.YMin, box.ZMin])
@@ -219,7 +219,7 @@ class Nominal:
 
 def load_nominal(nominal: Any) -> Nominal:
     """A :class:`Nominal` from a path (STEP/IGES/BREP/FCStd) or a ``Part.Shape``."""
-    from .export import read_shape
+    from bladerecon.fc.export import read_shape
 
     if isinstance(nominal, (str, bytes)) or hasattr(nominal, "__fspath__"):
         return Nominal(read_shape(nominal), os.fspath(nominal))

@@ -12,13 +12,13 @@ from typing import Any
 
 import numpy as np
 
-from bladerecon.core.bspline import evaluate_surface
+from bladerecon.core.geometry.bspline import evaluate_surface
 from bladerecon.core.errors import BladeReconError
-from bladerecon.core.spline import BSplineSurface
+from bladerecon.core.geometry.spline import BSplineSurface
 from bladerecon.core.tolerances import PLANAR_TOL
 
-from .convert import compound, make_face
-from .freecad_env import import_freecad, stdout_to_stderr
+from bladerecon.fc.convert import compound, make_face
+from bladerecon.fc.freecad_env import import_freecad, stdout_to_stderr
 
 __all__ = ["write_step", "make_solid", "read_shape", "end_section_flatness", "SHAPE_SUFFIXES"]
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 import os
 from typing import Any
 
-from .freecad_env import import_freecad
+from bladerecon.fc.freecad_env import import_freecad
 
 __all__ = ["open", "insert", "FILE_TYPES"]
 
@@ -21,7 +21,7 @@ FILE_TYPES = "BladeRecon measured points (*.csv *.xyz *.pts *.asc *.dat)"
 
 def insert(filename: str, docname: str) -> Any:
     """Add the points of ``filename`` (mm) to document ``docname`` (created if missing)."""
-    from .objects import make_measured_points
+    from bladerecon.fc.objects import make_measured_points
 
     try:
         doc = FreeCAD.getDocument(docname)

@@ -28,13 +28,13 @@ import numpy as np
 
 from bladerecon.core.errors import BladeReconError
 
-from .convert import compound
-from .freecad_env import import_freecad
+from bladerecon.fc.convert import compound
+from bladerecon.fc.freecad_env import import_freecad
 
 __all__ = ["MeasuredPoints", "BladeSections", "BladeSurface", "DeviationAnalysis",
            "make_measured_points", "make_blade_sections", "make_blade_surface", "make_deviation_analysis",
            "point_set", "core_surface", "surface_grid", "section_parameters", "SectionParameters",
-           "write_analysis_report", "export_step",
+           "export_step", "register_view_provider", "VIEW_PROVIDERS",
            "is_type", "ALIGN_MODES", "METHODS"]
 
 FreeCAD, Part = import_freecad()
@@ -169,11 +169,11 @@ class MeasuredPoints(_Feature):
 
 
 def make_measured_points(doc: Any, path: str, name: str = "MeasuredPoints") -> Any:
-    """Read ``path`` (any format of :func:`bladerecon.core.readers.read_points`) into a MeasuredPoints.
+    """Read ``path`` (any format of :func:`bladerecon.core.io.readers.read_points`) into a MeasuredPoints.
 
     Raises :class:`BladeReconError` for a bad file before anything is added to ``doc``.
     """
-    from bladerecon.core.readers import read_points
+    from bladerecon.core.io.readers import read_points
 
     ps = read_points(path)
     obj = doc.addObject("Part::FeaturePython", name)
@@ -191,8 +191,8 @@ def make_measured_points(doc: Any, path: str, name: str = "MeasuredPoints") -> A
 
 
 def point_set(obj: Any):
-    """The :class:`~bladerecon.core.readers.PointSet` held by a MeasuredPoints object."""
-    from bladerecon.core.readers import PointSet
+    """The :class:`~bladerecon.core.io.readers.PointSet` held by a MeasuredPoints object."""
+    from bladerecon.core.io.readers import PointSet
 
     if not is_type(obj, "MeasuredPoints"):
         raise BladeReconError(f"{getattr(obj, 'Label', obj)} is not a MeasuredPoints object: select imported points")
@@ -214,7 +214,7 @@ def _linked_points(obj: Any, link: str = "Points"):
 @dataclass(frozen=True)
 class SectionParameters:
     """Per-section results shown by BladeSections (mm, degrees): curves, LE/TE, and the
-    parameters of :mod:`bladerecon.core.section_parameters` (issue 3). NaN where a value
+    parameters of :mod:`bladerecon.core.sections.parameters` (issue 3). NaN where a value
     could not be measured (an edge with too few points for a radius: see ``warnings``)."""
 
     names: tuple[str, ...]
@@ -236,17 +236,17 @@ class SectionParameters:
 
 def section_parameters(section_set) -> SectionParameters:
     """Section curves, LE/TE and parameters of every section of a
-    :class:`~bladerecon.core.sections.SectionSet`.
+    :class:`~bladerecon.core.sections.ordering.SectionSet`.
 
     Curves are fitted as :func:`bladerecon.core.reconstruct.reconstruct` does (interpolating
     or smoothing, chosen from spacing against noise); segmentation and parameters by
-    :func:`bladerecon.core.section_parameters.segment_sections` / ``measure_section`` (LE/TE
+    :func:`bladerecon.core.sections.parameters.segment_sections` / ``measure_section`` (LE/TE
     from the curvature peaks, the LE chained from the first section's measured start). An
     edge too sparse for a radius gives NaN and a warning, not a failure.
     """
     from bladerecon.core.reconstruct import _fit_sections
-    from bladerecon.core.section_curves import choose_method
-    from bladerecon.core.section_parameters import measure_section, segment_sections
+    from bladerecon.core.surface.section_curves import choose_method
+    from bladerecon.core.sections.parameters import measure_section, segment_sections
 
     pts = [s.points for s in section_set.sections]
     curves = _fit_sections(pts, choose_method(pts), None)
@@ -288,9 +288,9 @@ class BladeSections(_Feature):
     )
 
     def compute(self, obj: Any) -> None:
-        from bladerecon.core.sections import build_sections
+        from bladerecon.core.sections.ordering import build_sections
 
-        from .convert import to_part_curve
+        from bladerecon.fc.convert import to_part_curve
 
         params = section_parameters(build_sections(_linked_points(obj)))
         edges = [Part.Edge(to_part_curve(c)) for c in params.curves]
@@ -350,11 +350,11 @@ class BladeSurface(_Feature):
             obj.Method = "auto"
 
     def compute(self, obj: Any) -> None:
-        from bladerecon.core.projection import project_points_to_surface
+        from bladerecon.core.geometry.projection import project_points_to_surface
         from bladerecon.core.reconstruct import reconstruct
-        from bladerecon.core.sections import build_sections
+        from bladerecon.core.sections.ordering import build_sections
 
-        from .convert import make_face
+        from bladerecon.fc.convert import make_face
 
         if obj.Tolerance < 0:
             raise BladeReconError(f"{obj.Label}: Tolerance {obj.Tolerance} mm: give 0 (automatic) or a positive distance")
@@ -391,8 +391,8 @@ def make_blade_surface(doc: Any, points_obj: Any, method: str = "auto", toleranc
 
 
 def core_surface(obj: Any):
-    """The core :class:`~bladerecon.core.spline.BSplineSurface` of a BladeSurface (or any one-face shape)."""
-    from .convert import from_part_surface
+    """The core :class:`~bladerecon.core.geometry.spline.BSplineSurface` of a BladeSurface (or any one-face shape)."""
+    from bladerecon.fc.convert import from_part_surface
 
     shape = getattr(obj, "Shape", None)
     if shape is None or shape.isNull() or len(shape.Faces) != 1:
@@ -407,7 +407,7 @@ def surface_grid(surface, per_span: int, n_v: int) -> tuple[np.ndarray, np.ndarr
     are dense, are sampled densely); for a periodic u the first column is repeated at the
     end so that a quad mesh closes.
     """
-    from bladerecon.core.bspline import evaluate_surface
+    from bladerecon.core.geometry.bspline import evaluate_surface
 
     k = np.asarray(surface.u_knots, float)
     f = np.arange(per_span) / per_span
@@ -467,9 +467,9 @@ class DeviationAnalysis(_Feature):
             obj.Tolerance = 0.03
 
     def compute(self, obj: Any) -> None:
-        from bladerecon.core.alignment import apply_transform
+        from bladerecon.core.analysis.alignment import apply_transform
 
-        from .deviation import Nominal, measure_deviation
+        from bladerecon.fc.deviation import Nominal, measure_deviation
 
         ps = _linked_points(obj, "Measured")
         if obj.Nominal is None:
@@ -529,7 +529,7 @@ def _measure_together(points: np.ndarray, extra: np.ndarray, nominal, tolerance:
     found independently, so the points' results are those of measuring them alone)."""
     from dataclasses import fields
 
-    from .deviation import DeviationResult, PointDeviation, check_units, deviation_summary
+    from bladerecon.fc.deviation import DeviationResult, PointDeviation, check_units, deviation_summary
 
     P = np.asarray(points, float)
     check_units(P, nominal, source)
@@ -555,55 +555,28 @@ def make_deviation_analysis(doc: Any, measured: Any, nominal: Any, surface: Any 
 
 
 # --------------------------------------------------------------------------- view providers
-def _attach_view(obj: Any, kind: str) -> None:
-    """Attach the GUI view provider of ``kind`` when the GUI is up (never imports FreeCADGui headless)."""
-    if not FreeCAD.GuiUp:
-        return
-    from bladerecon.gui import view_providers
+#: View-provider classes by object kind ("MeasuredPoints", ...). The GUI layer fills it when it is
+#: loaded (:mod:`bladerecon.gui.view_providers` registers its classes on import), so this module
+#: never imports the GUI: headless there is nothing to attach.
+VIEW_PROVIDERS: dict[str, Any] = {}
 
-    getattr(view_providers, f"ViewProvider{kind}")(obj.ViewObject)
+
+def register_view_provider(kind: str, cls: Any) -> None:
+    """Make ``cls(obj.ViewObject)`` the view provider the factories attach to objects of ``kind``."""
+    VIEW_PROVIDERS[kind] = cls
+
+
+def _attach_view(obj: Any, kind: str) -> None:
+    """Attach the registered view provider of ``kind`` when the GUI is up."""
+    cls = VIEW_PROVIDERS.get(kind)
+    if FreeCAD.GuiUp and cls is not None:
+        cls(obj.ViewObject)
 
 
 # --------------------------------------------------------------------------- outputs
-def write_analysis_report(obj: Any, folder: str) -> dict:
-    """The deviation report (``deviation --report``'s report.html, plots, CSV) of a DeviationAnalysis.
-
-    The deviation is measured again (the plots need feet and normals, which the document
-    does not keep); returns the summary written to summary.json.
-    """
-    from bladerecon.deviation_report import write_deviation_report
-
-    from .deviation import Nominal, measure_deviation
-
-    if not is_type(obj, "DeviationAnalysis"):
-        raise BladeReconError(f"{getattr(obj, 'Label', obj)} is not a deviation analysis: select one")
-    parent = os.path.dirname(os.path.abspath(folder))
-    if not os.path.isdir(parent):
-        raise BladeReconError(f"report folder {folder}: folder {parent} does not exist; create it first")
-    ps = _linked_points(obj, "Measured")
-    if obj.Nominal is None:
-        raise BladeReconError(f"{obj.Label}: no nominal linked: set its 'Nominal' property")
-    nominal = Nominal(obj.Nominal.Shape, obj.Nominal.Label)
-    res = measure_deviation(ps.points, nominal, obj.Alignment, obj.Tolerance, source=ps.source,
-                            robust=bool(obj.RobustFit))
-    s = res.stats
-    al = res.alignment
-    summary = {key: s[key] for key in ("points", "max", "min", "mean", "std", "rms", "within_tolerance_pct",
-                                       "tolerance", "max_abs", "mean_abs")}
-    summary.update(
-        alignment=al.as_dict() if al is not None else {"mode": "none", "matrix": np.eye(4).tolist(),
-                                                        "rotation_deg": 0.0, "translation_mm": [0.0, 0.0, 0.0]},
-        nominal={"file": obj.Nominal.Label, "faces": nominal.n_faces, "size_mm": nominal.size,
-                 "method": "+".join(res.deviation.methods)},
-        units="mm", measured=ps.source)
-    surface = core_surface(obj.Surface) if obj.Surface is not None else None
-    write_deviation_report(folder, summary, res, nominal, ps.section, ps.section_names, surface)
-    return summary
-
-
 def export_step(obj: Any, path: str) -> None:
     """Write the shape of ``obj`` (a BladeSurface's face) to a STEP file in mm, atomically."""
-    from .export import write_step
+    from bladerecon.fc.export import write_step
 
     shape = getattr(obj, "Shape", None)
     if shape is None or shape.isNull():

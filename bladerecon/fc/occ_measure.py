@@ -37,7 +37,7 @@ import numpy as np
 
 from bladerecon.core.errors import BladeReconError
 
-from .freecad_env import import_freecad
+from bladerecon.fc.freecad_env import import_freecad
 
 __all__ = ["occ_distances", "occ_target_faces", "distance_method_timings"]
 

@@ -1,6 +1,6 @@
 """The local bicubic surface (seed 004 eqs. 9-11) as a sewn shell of Bézier patch faces.
 
-Each cell of the C1 double-knot B-spline (:func:`bladerecon.core.local_bicubic.bezier_patches`)
+Each cell of the C1 double-knot B-spline (:func:`bladerecon.core.surface.local_bicubic.bezier_patches`)
 becomes one ``Part.BezierSurface`` face; the faces are sewn into one shell so that STEP
 readers see shared edges, not a heap of loose patches. Units: mm.
 """
@@ -11,10 +11,10 @@ from typing import Any
 import numpy as np
 
 from bladerecon.core.errors import BladeReconError
-from bladerecon.core.local_bicubic import bezier_patches
-from bladerecon.core.spline import BSplineSurface
+from bladerecon.core.surface.local_bicubic import bezier_patches
+from bladerecon.core.geometry.spline import BSplineSurface
 
-from .freecad_env import import_freecad
+from bladerecon.fc.freecad_env import import_freecad
 
 __all__ = ["make_patch_shell", "SEW_TOLERANCE"]
 

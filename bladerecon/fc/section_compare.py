@@ -1,6 +1,6 @@
 """Section parameters measured vs nominal, section by section (issue 3 §4 in the issue 4 report).
 
-Every measured section is segmented and measured (:mod:`bladerecon.core.section_parameters`);
+Every measured section is segmented and measured (:mod:`bladerecon.core.sections.parameters`);
 the nominal shape is cut in the plane of that section (:func:`bladerecon.fc.slicing.cut_sections`)
 and measured the same way, its LE taken at the end nearest the measured LE. Lengths mm,
 angles degrees; differences are measured − nominal.
@@ -22,9 +22,9 @@ def compare_section_parameters(section_points: list[np.ndarray], span_axis: np.n
     ``lenient``: an edge with too few points for a radius gives ``None`` and a warning
     instead of an error (a report should not fail over one radius).
     """
-    from ..core.section_parameters import compare_with_nominal, measure_section, segment_sections
-    from ..core.segmentation import segment_section
-    from .slicing import cut_sections
+    from bladerecon.core.sections.parameters import compare_with_nominal, measure_section, segment_sections
+    from bladerecon.core.sections.segmentation import segment_section
+    from bladerecon.fc.slicing import cut_sections
 
     segs = segment_sections(section_points, span_axis, measured_start)
     measured = [measure_section(s, offsets, strict_radius=not lenient) for s in segs]

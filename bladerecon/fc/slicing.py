@@ -10,8 +10,8 @@ import numpy as np
 
 from bladerecon.core.errors import BladeReconError
 
-from .export import read_shape
-from .freecad_env import import_freecad
+from bladerecon.fc.export import read_shape
+from bladerecon.fc.freecad_env import import_freecad
 
 __all__ = ["cut_sections", "cut_at_heights", "NUDGES"]
 
@@ -74,12 +74,12 @@ def cut_sections(path: str, origins: np.ndarray, normals: np.ndarray, step: floa
 
 def _cut_single_face(shape, origins, normals, step):
     """One whole u-periodic B-spline face (a BladeRecon or CAD blade surface): cut it in the
-    core (:func:`bladerecon.core.plan.cut_surface`, ~100x faster than ``Shape.slice``).
+    core (:func:`bladerecon.core.sections.plan.cut_surface`, ~100x faster than ``Shape.slice``).
     None when the shape is anything else, or a plane does not cross it all round."""
-    from bladerecon.core.plan import cut_surface
+    from bladerecon.core.sections.plan import cut_surface
 
-    from .compare import _single_bspline_face
-    from .convert import from_part_surface
+    from bladerecon.fc.compare import _single_bspline_face
+    from bladerecon.fc.convert import from_part_surface
 
     face = _single_bspline_face(shape)
     if face is None:

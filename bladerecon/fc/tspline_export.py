@@ -1,6 +1,6 @@
 """T-spline → CAD: Bézier patches as ``Part.BezierSurface`` faces sewn into one shell, STEP.
 
-The core's Bézier extraction (:func:`bladerecon.core.tspline.bezier_patches`) gives one
+The core's Bézier extraction (:func:`bladerecon.core.surface.tspline.bezier_patches`) gives one
 bicubic patch per Bézier element of the reduced domain; each becomes a face with the
 parameter box mapped onto the Bézier surface's [0,1]². Neighbouring patches meet exactly
 (the T-spline is C² across simple knot lines), so sewing at 1e-6 mm joins them into one
@@ -14,9 +14,9 @@ from typing import Any
 import numpy as np
 
 from bladerecon.core.errors import BladeReconError
-from bladerecon.core.tspline import BezierPatch
+from bladerecon.core.surface.tspline import BezierPatch
 
-from .freecad_env import import_freecad
+from bladerecon.fc.freecad_env import import_freecad
 
 __all__ = ["patch_surface", "patch_faces", "sew_patches", "occ_evaluate", "shell_gaps", "write_tspline_step",
            "make_tspline_feature", "seam_check", "free_edges"]
@@ -97,7 +97,7 @@ def write_tspline_step(patches: list[BezierPatch], path: str | os.PathLike, tol:
                        seam: bool = False) -> dict:
     """Sew the patches into one shell and write it to STEP (mm, atomic). Returns counts;
     with ``seam`` (a blade, u around the profile) also :func:`seam_check` of the shell."""
-    from .export import write_step
+    from bladerecon.fc.export import write_step
 
     faces = patch_faces(patches)
     shell = sew_patches(faces, tol)
@@ -180,7 +180,7 @@ def make_tspline_feature(doc: Any, path: str, tolerance: float, zmap: bool = Fal
     """Fit an ASTS to the points in ``path`` (seed 002) and add the sewn patch shell to
     ``doc`` as a ``Part::Feature`` named ``TSplineSurface``; the fit summary goes in its
     Label2 (description) and the report view. Tolerance in mm."""
-    from bladerecon.tspline_cli import fit_point_file
+    from bladerecon.core.surface.tspline_job import fit_point_file
 
     _, patches, summary = fit_point_file(path, tolerance, zmap=zmap,
                                          say=lambda m: FreeCAD.Console.PrintMessage(f"BladeRecon: {m}\n"))

@@ -19,7 +19,7 @@ import FreeCADGui
 
 from bladerecon.core.errors import BladeReconError
 
-from . import commands
+from bladerecon.gui import commands
 
 __all__ = ["LiveAcquisition", "AcquireCommand", "update_preview", "COMMAND_NAME"]
 
@@ -51,13 +51,13 @@ class LiveAcquisition:
 
     def __init__(self, port: str, output: str, baud: int = 115200, calibration: str | None = None,
                  journal: str | None = None) -> None:
-        from bladerecon.acquire.commands import _default_journal
+        from bladerecon.acquire.reader import default_journal
         from bladerecon.acquire.reader import InstrumentReader
-        from bladerecon.core.instrument import Calibration, load_calibration
+        from bladerecon.core.io.instrument import Calibration, load_calibration
 
         cal = load_calibration(calibration) if calibration else Calibration()
         self.output = output
-        self.journal = journal or _default_journal(output)
+        self.journal = journal or default_journal(output)
         self.reader = InstrumentReader(port, baud, cal, self.journal)
         self.finished = threading.Event()
         self.error: str | None = None
@@ -98,7 +98,7 @@ class LiveAcquisition:
             self._finish()
 
     def _finish(self) -> None:
-        from bladerecon.core.readers import write_points_csv
+        from bladerecon.core.io.readers import write_points_csv
 
         if self.doc.getObject(PREVIEW_NAME) is not None:
             self.doc.removeObject(PREVIEW_NAME)

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from bladerecon.core.surface_analysis import zebra
+from bladerecon.core.analysis.surface_analysis import zebra
 
 __all__ = ["DIVERGING", "diverging", "deviation_colours", "deviation_limit", "curvature_colours", "curvature_scale",
            "symlog_position",

@@ -9,7 +9,7 @@ from typing import Any
 
 import FreeCADGui
 
-from . import commands, paths
+from bladerecon.gui import actions, paths
 
 __all__ = ["ReconstructPanel", "ComparePanel", "SurfaceAnalysisPanel"]
 
@@ -43,7 +43,7 @@ class _Panel:
 
 
 class ReconstructPanel(_Panel):
-    """Method and tolerance, then :func:`commands.reconstruct_surface`."""
+    """Method and tolerance, then :func:`actions.reconstruct_surface`."""
 
     ui = "Reconstruct"
 
@@ -57,11 +57,11 @@ class ReconstructPanel(_Panel):
         return {"method": self.form.method.currentText(), "tolerance": self.form.tolerance.value()}
 
     def run(self, **options: Any) -> Any:
-        return commands.reconstruct_surface(self.points, **options)
+        return actions.reconstruct_surface(self.points, **options)
 
 
 class ComparePanel(_Panel):
-    """Alignment, tolerance and whether to colour the surface, then :func:`commands.compare_with_nominal`."""
+    """Alignment, tolerance and whether to colour the surface, then :func:`actions.compare_with_nominal`."""
 
     ui = "Compare"
 
@@ -84,7 +84,7 @@ class ComparePanel(_Panel):
                 "robust": self.form.robust.isEnabled() and self.form.robust.isChecked()}
 
     def run(self, **options: Any) -> Any:
-        return commands.compare_with_nominal(self.measured, self.nominal, **options)
+        return actions.compare_with_nominal(self.measured, self.nominal, **options)
 
 
 class SurfaceAnalysisPanel(_Panel):
@@ -122,4 +122,4 @@ class SurfaceAnalysisPanel(_Panel):
         return super().reject()
 
     def run(self, **options: Any) -> Any:
-        commands.set_surface_analysis(self.surface, **options)
+        actions.set_surface_analysis(self.surface, **options)

@@ -14,7 +14,7 @@ import FreeCADGui
 
 from bladerecon.core.errors import BladeReconError
 
-from . import commands
+from bladerecon.gui import commands
 
 __all__ = ["TSplineCommand", "fit_tspline_into_document", "COMMAND_NAME"]
 

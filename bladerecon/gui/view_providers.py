@@ -19,7 +19,7 @@ from pivy import coin
 
 from bladerecon.fc import objects
 
-from . import colormap, paths
+from bladerecon.gui import colormap, paths
 
 __all__ = ["ViewProviderMeasuredPoints", "ViewProviderBladeSections", "ViewProviderBladeSurface",
            "ViewProviderDeviationAnalysis", "ColourLegend", "ColouredMesh"]
@@ -382,8 +382,8 @@ class ViewProviderBladeSurface(_ViewProvider):
             self._refresh(vobj)
 
     def _build_geometry(self, obj: Any) -> bool:
-        from bladerecon.core.bspline import surface_derivatives
-        from bladerecon.core.surface_analysis import curvature_from_derivatives
+        from bladerecon.core.geometry.bspline import surface_derivatives
+        from bladerecon.core.analysis.surface_analysis import curvature_from_derivatives
         from bladerecon.fc.compare import outward_sign
 
         try:
@@ -540,3 +540,7 @@ class ViewProviderDeviationAnalysis(_ViewProvider):
         note = f"tolerance ±{tolerance:.4f} mm" + ("" if tolerance < limit else " (beyond the bar)")
         self.legends[mode].update(lambda t: colormap.deviation_colours(t * limit, limit), ticks,
                                   f"{what} - nominal, mm\n+ outside, - inside", band=(tolerance / limit, note))
+
+
+for _kind in ("MeasuredPoints", "BladeSections", "BladeSurface", "DeviationAnalysis"):
+    objects.register_view_provider(_kind, globals()[f"ViewProvider{_kind}"])

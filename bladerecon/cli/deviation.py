@@ -1,0 +1,176 @@
+"""``python3 -m bladerecon deviation MEASURED --nominal NOMINAL ...``: signed deviation from the nominal.
+
+Issue 4 §5. Parser and runner of the subcommand (``cli.py`` only wires them in). Lengths in
+mm, angles in degrees. Errors a user can cause raise :class:`BladeReconError` (one line,
+exit status 2); the CSV and the report folder are written atomically.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+
+import numpy as np
+
+from bladerecon.core.errors import BladeReconError
+
+__all__ = ["add_parser", "run_deviation"]
+
+
+def add_parser(sub) -> None:
+    d = sub.add_parser("deviation", help="signed deviation of measured points from the nominal (+ best fit, report)",
+                       description="Signed distance (mm, + where material is outside the nominal) of every "
+                                   "measured point to the nominal shape, optionally after a best-fit alignment.")
+    d.add_argument("measured", help="point file (any format 'reconstruct' reads; section labels optional), "
+                                    "or a reconstructed surface (STEP/IGES/BREP/FCStd, one B-spline face: sampled)")
+    d.add_argument("--nominal", required=True, help="nominal blade: STEP/IGES/BREP/FCStd")
+    d.add_argument("--align", choices=("none", "rigid", "translate", "rotate-z"), default="none",
+                   help="best fit before comparing: none (default), rigid, translate, or rotate-z (about the z axis)")
+    d.add_argument("--robust", action="store_true",
+                   help="with --align: a robust best fit (Tukey biweight) that a worn or damaged zone does not "
+                        "pull; the points it weighted out are counted in the summary")
+    d.add_argument("--tolerance", type=float, default=0.03, metavar="MM",
+                   help="profile tolerance ±MM for within_tolerance_pct (default 0.03)")
+    d.add_argument("--csv", metavar="FILE", help="write x,y,z,deviation,nx,ny,nz,face per point")
+    d.add_argument("--report", metavar="DIR", help="write report.html with plots and deviations.csv into DIR")
+    d.add_argument("--aligned", metavar="FILE",
+                   help="with --align: write the measured input moved by the best fit: a STEP of the moved "
+                        "surface when MEASURED is a surface, else a section,x,y,z points CSV")
+    d.add_argument("--json", action="store_true", help="print one JSON summary object to stdout")
+    d.add_argument("--quiet", action="store_true", help="no progress messages on stderr")
+    d.set_defaults(run=run_deviation)
+
+
+def _say(args, msg: str) -> None:
+    if not args.quiet:
+        print(f"bladerecon: {msg}", file=sys.stderr, flush=True)
+
+
+def _check_outputs(args) -> None:
+    if args.aligned and args.align == "none":
+        raise BladeReconError("--aligned writes the best-fitted input: add --align rigid|translate|rotate-z")
+    if args.robust and args.align == "none":
+        raise BladeReconError("--robust is a kind of best fit: add --align rigid|translate|rotate-z")
+    for path, what in ((args.csv, "--csv"), (args.report, "--report"), (args.aligned, "--aligned")):
+        if path:
+            parent = os.path.dirname(os.path.abspath(path)) or "."
+            if not os.path.isdir(parent):
+                raise BladeReconError(f"{what} {path}: folder {parent} does not exist; create it first")
+            if os.path.abspath(path) in (os.path.abspath(args.measured), os.path.abspath(args.nominal)):
+                raise BladeReconError(f"{what} {path} is an input file: choose another name (inputs are never overwritten)")
+    if not args.tolerance > 0:
+        raise BladeReconError(f"--tolerance {args.tolerance}: give a positive tolerance in mm")
+
+
+def run_deviation(args: argparse.Namespace) -> dict:
+    """Run the subcommand; returns the JSON summary."""
+    t0 = time.perf_counter()
+    _check_outputs(args)
+    from bladerecon.fc.deviation import load_nominal, measure_deviation, read_measured, write_deviation_csv
+
+    _say(args, f"reading {args.measured}")
+    surface = None
+    if os.path.splitext(args.measured)[1].lower() in (".step", ".stp", ".iges", ".igs", ".brep", ".brp", ".fcstd"):
+        points, surface = _surface_points(args.measured)
+        section, names = None, ()
+    else:
+        points, section, names = read_measured(args.measured)
+    _say(args, f"{len(points)} points; reading nominal {args.nominal}")
+    nominal = load_nominal(args.nominal)
+    t_read = time.perf_counter()
+    if args.align != "none":
+        _say(args, f"best fit ({args.align})")
+    res = measure_deviation(points, nominal, args.align, args.tolerance, source=args.measured, robust=args.robust)
+    s = res.stats
+    _say(args, f"deviation max {s['max'] * 1000:.1f} µm, min {s['min'] * 1000:.1f} µm, "
+               f"{s['within_tolerance_pct']:.1f} % within ±{args.tolerance} mm")
+    summary = {
+        "points": s["points"], "max": s["max"], "min": s["min"], "mean": s["mean"], "std": s["std"],
+        "rms": s["rms"], "within_tolerance_pct": s["within_tolerance_pct"], "tolerance": args.tolerance,
+        "max_abs": s["max_abs"], "mean_abs": s["mean_abs"],
+        "alignment": _alignment_json(res.alignment),
+        "nominal": {"file": args.nominal, "faces": nominal.n_faces, "size_mm": nominal.size,
+                    "method": "+".join(res.deviation.methods)},
+        "units": "mm", "measured": args.measured,
+    }
+    if args.csv:
+        write_deviation_csv(args.csv, res.points, res.deviation)
+        _say(args, f"wrote {args.csv}")
+    if args.aligned:
+        summary["aligned"] = _write_aligned(args.aligned, res, surface, section, names)
+        _say(args, f"wrote {args.aligned}")
+    t_done = time.perf_counter()
+    summary["seconds"] = {"read": t_read - t0, "align": res.seconds["align"], "measure": res.seconds["measure"],
+                          "total": t_done - t0}
+    if args.report and section is not None:
+        summary["sections"] = _section_table(args, res, nominal)
+    if args.report:
+        from bladerecon.report.deviation import write_deviation_report
+        write_deviation_report(args.report, summary, res, nominal, section, names, surface)
+        summary["seconds"]["report"] = time.perf_counter() - t_done
+        summary["seconds"]["total"] = time.perf_counter() - t0
+        _say(args, f"report in {args.report}")
+    return summary
+
+
+def _section_table(args, res, nominal) -> dict:
+    """Section parameters measured (after the best fit) vs the nominal cut in each section's
+    plane, for the report. A section that cannot be measured does not stop the report: the
+    message is kept instead of the table."""
+    from bladerecon.core.analysis.alignment import apply_transform
+    from bladerecon.core.io.readers import read_points
+    from bladerecon.core.sections.ordering import build_sections
+    from bladerecon.fc.section_compare import compare_section_parameters
+
+    _say(args, "section parameters, measured vs nominal")
+    try:
+        ss = build_sections(read_points(args.measured))
+        M = res.alignment.matrix if res.alignment is not None else np.eye(4)
+        pts = [apply_transform(s.points, M) for s in ss.sections]
+        rows = compare_section_parameters(pts, ss.span_axis, not ss.sections[0].reordered, nominal.shape,
+                                          name=args.nominal)
+        return {"rows": rows, "names": [s.name for s in ss.sections]}
+    except BladeReconError as err:
+        _say(args, f"no section-parameter table: {err}")
+        return {"error": str(err)}
+
+
+def _write_aligned(path: str, res, surface, section, names) -> str:
+    """The measured input moved by the alignment: the surface exactly (its poles moved), or
+    the points with their section labels. Written atomically."""
+    if surface is not None:
+        from bladerecon.core.analysis.alignment import transform_surface
+        from bladerecon.fc.convert import make_face
+        from bladerecon.fc.export import write_step
+
+        write_step(make_face(transform_surface(surface, res.alignment.matrix)), path)
+        return path
+    from bladerecon.core.io.readers import write_points_csv
+
+    labels = section if section is not None else np.zeros(len(res.points), dtype=int)
+    write_points_csv(path, res.points, labels, names or None)
+    return path
+
+
+def _surface_points(path: str):
+    """A reconstructed surface given as MEASURED: its B-spline face sampled densely (the
+    ``reconstruct --nominal`` samples: 8 per knot span around, 41 along the span)."""
+    from bladerecon.fc.compare import surface_samples
+    from bladerecon.fc.convert import from_part_surface
+    from bladerecon.fc.export import read_shape
+
+    shape = read_shape(path)
+    faces = [f for f in shape.Faces if type(f.Surface).__name__ == "BSplineSurface"]
+    if len(faces) != 1:
+        raise BladeReconError(f"{path}: expected one B-spline face (a reconstructed blade surface), "
+                              f"found {len(faces)} among {len(shape.Faces)} faces: give the point file instead")
+    surface = from_part_surface(faces[0].Surface)
+    return surface_samples(surface)[1], surface
+
+
+def _alignment_json(al) -> dict:
+    if al is None:
+        return {"mode": "none", "matrix": np.eye(4).tolist(), "rotation_deg": 0.0,
+                "translation_mm": [0.0, 0.0, 0.0]}
+    return al.as_dict()

@@ -1,0 +1,156 @@
+"""``python3 -m bladerecon plan NOMINAL --heights z1,z2,... --tolerance 0.05 -o plan.csv --json``.
+
+Issue 3 §3: a measurement plan with the fewest points (seed 000 §2.1,
+:mod:`bladerecon.core.sections.plan`). NOMINAL is a STEP/IGES/BREP/FCStd blade, cut by the planes
+``axis·x = z`` at the given heights and discretised every ``--step`` mm (0.1 mm, the paper's
+measurement step), or a dense section file (then ``--heights`` picks the nearest sections,
+all sections without it). Writes ``section,x,y,z`` (mm); prints points kept, compression
+rate and the achieved Hausdorff distance. ``--check`` also reconstructs the surface from the
+plan and measures it against a shape nominal.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+
+import numpy as np
+
+from bladerecon.core.errors import BladeReconError
+
+__all__ = ["add_parser", "run_plan"]
+
+SHAPE_SUFFIXES = (".step", ".stp", ".iges", ".igs", ".brep", ".brp", ".fcstd")
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser("plan", help="measurement plan: fewest section points for a tolerance (seed 000 §2.1)",
+                       description="Reduce dense nominal sections to a measurement plan: 8 equal points + the 2 "
+                                   "curvature extrema, then the farthest point until the cubic through the plan "
+                                   "is within the tolerance. Lengths in mm.")
+    p.add_argument("nominal", help="nominal blade (STEP/IGES/BREP/FCStd) or a dense section file")
+    p.add_argument("--heights", default="", metavar="Z1,Z2,...", help="section heights along --axis (mm)")
+    p.add_argument("--axis", default="0,0,1", metavar="X,Y,Z", help="span axis (default 0,0,1)")
+    p.add_argument("--tolerance", type=float, default=0.05, metavar="MM", help="compression tolerance (default 0.05)")
+    p.add_argument("--step", type=float, default=0.1, metavar="MM",
+                   help="point spacing of the dense nominal cut (default 0.1, the paper's measurement step)")
+    p.add_argument("-o", "--output", help="plan CSV to write (section,x,y,z; mm), atomically")
+    p.add_argument("--check", action="store_true",
+                   help="reconstruct the surface from the plan and measure it against the (shape) nominal")
+    p.add_argument("--surface-within", action="store_true",
+                   help="plan again at tighter section tolerances until the surface reconstructed from the plan "
+                        "is within --tolerance of the (shape) nominal between the sections too (implies --check)")
+    p.add_argument("--json", action="store_true", help="print the JSON summary on stdout")
+    p.add_argument("--quiet", action="store_true", help="no progress messages on stderr")
+    p.set_defaults(run=run_plan)
+
+
+def _say(args, msg: str) -> None:
+    if not args.quiet:
+        print(f"bladerecon: {msg}", file=sys.stderr, flush=True)
+
+
+def _numbers(text: str, what: str) -> np.ndarray:
+    try:
+        return np.array([float(v) for v in text.split(",") if v.strip()], float)
+    except ValueError:
+        raise BladeReconError(f"{what} {text!r}: give numbers separated by commas") from None
+
+
+def _dense_sections(args, axis: np.ndarray, heights: np.ndarray) -> tuple[list[np.ndarray], np.ndarray]:
+    if os.path.splitext(args.nominal)[1].lower() in SHAPE_SUFFIXES:
+        if not heights.size:
+            raise BladeReconError("a shape nominal needs --heights z1,z2,... (mm along --axis) to cut sections")
+        from bladerecon.fc.slicing import cut_at_heights
+        return cut_at_heights(args.nominal, heights, axis, args.step), heights
+    from bladerecon.core.io.readers import read_points
+    from bladerecon.core.sections.ordering import build_sections
+    ss = build_sections(read_points(args.nominal))
+    pts = [s.points for s in ss.sections]
+    h = np.array([p.mean(axis=0) @ axis for p in pts])
+    if heights.size:
+        pick = [int(np.argmin(np.abs(h - z))) for z in heights]
+        return [pts[i] for i in pick], h[pick]
+    return pts, h
+
+
+def run_plan(args: argparse.Namespace) -> dict:
+    from bladerecon.core.sections.plan import plan_sections
+
+    axis = _numbers(args.axis, "--axis")
+    if axis.size != 3 or not np.linalg.norm(axis) > 0:
+        raise BladeReconError(f"--axis {args.axis}: give a direction x,y,z")
+    axis = axis / np.linalg.norm(axis)
+    heights = _numbers(args.heights, "--heights")
+    if args.output:
+        parent = os.path.dirname(os.path.abspath(args.output)) or "."
+        if not os.path.isdir(parent):
+            raise BladeReconError(f"--output {args.output}: folder {parent} does not exist; create it first")
+        if os.path.abspath(args.output) == os.path.abspath(args.nominal):
+            raise BladeReconError(f"--output {args.output} is the input file: choose another name")
+    _say(args, f"cutting {args.nominal}")
+    dense, h = _dense_sections(args, axis, heights)
+    _say(args, f"{len(dense)} sections, {sum(len(p) for p in dense)} dense points; planning at ±{args.tolerance} mm")
+    surface_plan = None
+    if args.surface_within:
+        from bladerecon.core.sections.plan import plan_for_surface
+        _check_possible(args, dense)
+
+        def surface_error(plans):
+            err = _check(args, plans, axis)["surface_to_nominal_max"]
+            _say(args, f"surface from the plan: max {err:.4f} mm from the nominal")
+            return err
+
+        surface_plan = plan_for_surface(dense, args.tolerance, surface_error, axis)
+        plans = surface_plan.plans
+        if not surface_plan.within:
+            _say(args, f"the surface stays {surface_plan.surface_error:.4f} mm from the nominal after "
+                       f"{surface_plan.rounds} rounds (section tolerance {surface_plan.section_tolerance:.4f} mm)")
+    else:
+        plans = plan_sections(dense, args.tolerance, axis)
+    kept = sum(len(p.indices) for p in plans)
+    total = sum(p.dense_points for p in plans)
+    summary = {
+        "nominal": args.nominal, "tolerance": args.tolerance, "step": args.step, "units": "mm",
+        "points_kept": int(kept), "dense_points": int(total), "compression_rate": 1.0 - kept / total,
+        "hausdorff_max": max(p.hausdorff for p in plans),
+        "sections": [{"index": p.index, "height": float(z), "dense_points": p.dense_points,
+                      "points_kept": int(len(p.indices)), "compression_rate": p.compression,
+                      "hausdorff": p.hausdorff, "iterations": p.iterations} for p, z in zip(plans, h)],
+    }
+    if surface_plan is not None:
+        summary["surface_within"] = {"within": surface_plan.within, "section_tolerance": surface_plan.section_tolerance,
+                                     "surface_to_nominal_max": surface_plan.surface_error,
+                                     "rounds": surface_plan.rounds}
+    if args.output:
+        from bladerecon.core.io.readers import write_points_csv
+        pts = np.concatenate([p.points for p in plans])
+        sec = np.concatenate([np.full(len(p.indices), p.index) for p in plans])
+        write_points_csv(args.output, pts, sec)
+        summary["output"] = args.output
+        _say(args, f"wrote {args.output}")
+    if args.check or args.surface_within:
+        summary["check"] = _check(args, plans, axis)
+    _say(args, f"kept {kept} of {total} points ({100 * summary['compression_rate']:.1f} % fewer), "
+               f"max Hausdorff {summary['hausdorff_max']:.4f} mm")
+    return summary
+
+
+def _check_possible(args, sections) -> None:
+    what = "--surface-within" if args.surface_within else "--check"
+    if os.path.splitext(args.nominal)[1].lower() not in SHAPE_SUFFIXES:
+        raise BladeReconError(f"{what} needs a shape nominal (STEP/IGES/BREP/FCStd) to measure against")
+    if len(sections) < 2:
+        raise BladeReconError(f"{what} needs at least 2 heights to build a surface")
+
+
+def _check(args, plans, axis) -> dict:
+    """Reconstruct from the plan (interpolation) and measure the surface against the nominal."""
+    _check_possible(args, plans)
+    from bladerecon.core.reconstruct import reconstruct
+    from bladerecon.fc.compare import deviation_to_nominal, surface_samples
+    rec = reconstruct([p.points for p in plans], axis, method="interpolate")
+    _, samples = surface_samples(rec.surface)
+    dev = np.abs(deviation_to_nominal(samples, args.nominal).signed)
+    return {"surface_to_nominal_max": float(dev.max()), "surface_to_nominal_mean": float(dev.mean()),
+            "samples": int(len(samples))}

@@ -1,0 +1,189 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
+"""``python3 -m bladerecon reconstruct MEASURED -o blade.step ...``: measured sections -> surface.
+
+Points -> sections -> curves -> surface (-> STEP, -> deviation from a nominal, -> report folder).
+Lengths in mm. The options for real measurement data (slicing clouds, fairing, non-grid rows,
+local bicubic patches) are added by :mod:`bladerecon.cli.realdata`.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+
+import numpy as np
+
+from bladerecon.core.errors import BladeReconError
+
+__all__ = ["add_parser", "run_reconstruct"]
+
+
+class _Progress:
+    def __init__(self, quiet: bool) -> None:
+        self.quiet = quiet
+
+    def __call__(self, msg: str) -> None:
+        if not self.quiet:
+            print(f"bladerecon: {msg}", file=sys.stderr, flush=True)
+
+
+def add_parser(sub) -> None:
+    r = sub.add_parser("reconstruct", help="measured sections -> native B-spline surface (+ STEP)",
+                       description="Fit one periodic x clamped cubic B-spline surface through measured "
+                                   "blade sections. All lengths in mm.")
+    r.add_argument("input", help="point file: CSV with x,y,z[,section] header, 'x y z' blocks, or a section table")
+    r.add_argument("-o", "--output", help="STEP file to write (mm); written atomically")
+    r.add_argument("--nominal", help="nominal blade (STEP/IGES/BREP/FCStd) to compute the shape error against")
+    r.add_argument("--report", metavar="DIR", help="folder for summary.json, points.csv, plots")
+    r.add_argument("--json", action="store_true", help="print one JSON summary object to stdout")
+    r.add_argument("--method", choices=("auto", "interpolate", "approximate"), default="auto",
+                   help="auto (default): interpolate or smooth, chosen from point spacing against noise")
+    r.add_argument("--tolerance", type=float, metavar="MM",
+                   help="with --method approximate: largest allowed distance of a measured point (mm)")
+    r.add_argument("--pairing", choices=("anchored", "angle"), default="anchored",
+                   help="corresponding points between sections: LE/TE-anchored common parameter "
+                        "(default) or the angle pairing of seed 000 Fig. 5 (interpolates the paired points)")
+    r.add_argument("--segmented", action="store_true",
+                   help="rebuild every section from LE/TE/suction/pressure segments with curvature-continuous "
+                        "joints (seed 000 §2.2) and build the surface through the rebuilt sections")
+    r.add_argument("--continuity", type=int, choices=(2, 3), default=2,
+                   help="with --segmented: C2 (default) or C3 at the LE/TE joints")
+    r.add_argument("--solid", action="store_true", help="close hub and tip with planar caps; write a solid")
+    r.add_argument("--quiet", action="store_true", help="no progress messages on stderr")
+    from bladerecon.cli.realdata import add_options as add_realdata_options
+
+    add_realdata_options(r)
+    r.set_defaults(run=run_reconstruct)
+
+
+def _stats(d: np.ndarray, signed: bool | None = None) -> dict:
+    from bladerecon.core.geometry.projection import distance_stats
+    return distance_stats(d, signed=signed)
+
+
+def run_reconstruct(args: argparse.Namespace) -> dict:
+    from bladerecon.cli import realdata
+    from bladerecon.core.sections.ordering import build_sections
+    from bladerecon.core.reconstruct import reconstruct
+    from bladerecon.core.surface.pairing import reconstruct_paired
+    from bladerecon.core.geometry.projection import project_points_to_surface
+
+    say = _Progress(args.quiet or False)
+    realdata.check_options(args)
+    if args.tolerance is not None and args.method != "approximate":
+        raise BladeReconError("--tolerance applies to --method approximate; add --method approximate")
+    if args.pairing == "angle" and args.method == "approximate":
+        raise BladeReconError("--pairing angle interpolates the paired points; use it without --method approximate")
+    for path, what in ((args.output, "--output"), (args.report, "--report")):
+        if path:
+            parent = os.path.dirname(os.path.abspath(path)) or "."
+            if not os.path.isdir(parent):
+                raise BladeReconError(f"{what} {path}: folder {parent} does not exist; create it first")
+    if args.output and os.path.abspath(args.output) == os.path.abspath(args.input):
+        raise BladeReconError(f"--output {args.output} is the input file: choose another name (inputs are never overwritten)")
+    t_start = time.perf_counter()
+    say(f"reading {args.input}")
+    pointset, slicing = realdata.read_input(args)
+    sections = build_sections(pointset)
+    t_read = time.perf_counter()
+    n_reordered = sum(s.reordered for s in sections.sections)
+    say(f"{len(pointset.points)} points in {len(sections.sections)} sections"
+        + (f" ({n_reordered} reordered along the profile)" if n_reordered else ""))
+
+    pts = [s.points for s in sections.sections]
+    fairing = None
+    if args.fair:
+        say("fairing: looking for bad points")
+        pts, fairing, fairing_table = realdata.apply_fairing(sections, args)
+        say(f"fairing: {len(fairing['replaced'])} points replaced")
+    say("fitting section curves and surface")
+    measured_start = not sections.sections[0].reordered
+    seg_info = None
+    if getattr(args, "segmented", False):
+        if args.pairing == "angle" or args.method != "auto" or args.poles is not None:
+            raise BladeReconError("--segmented builds its own section curves: use it without --pairing angle, "
+                                  "--method and --poles")
+        from bladerecon.core.sections.edge_fits import rebuild_sections
+        rebuilt, seg_info = rebuild_sections(pts, sections.span_axis, measured_start, args.continuity)
+        # the rebuilt sections are sampled densely without noise: the surface interpolates them
+        rec = reconstruct(rebuilt, sections.span_axis, method="interpolate", first_point_is_measured=True)
+    elif args.poles is not None:
+        rec = realdata.reconstruct_nongrid(pts, sections.span_axis, args.poles)
+    elif args.pairing == "angle":
+        rec = reconstruct_paired(pts, sections.span_axis, first_point_is_measured=measured_start)
+    else:
+        rec = reconstruct(pts, sections.span_axis, method=args.method, tolerance=args.tolerance,
+                          first_point_is_measured=measured_start)
+    if args.surface == "local-bicubic":
+        rec = realdata.local_bicubic(rec, args.patches_around, args.fair_surface, pts)
+    measured = np.concatenate(pts)
+    if seg_info is None:
+        proj = project_points_to_surface(rec.surface, measured, rec.point_u, rec.point_v)
+    else:  # the surface parameters belong to the rebuilt sections' samples: search globally
+        proj = project_points_to_surface(rec.surface, measured)
+    t_fit = time.perf_counter()
+    surf = rec.surface
+    say(f"surface {surf.shape[0]} x {surf.shape[1]} poles ({rec.choice.method}); "
+        f"fit max {proj.distance.max() * 1000:.2f} µm")
+
+    summary: dict = {
+        "input": {"file": args.input, "format": pointset.format, "points": int(len(pointset.points)),
+                  "sections": len(sections.sections), "reordered_sections": int(n_reordered), "units": "mm"},
+        "surface": {"u_poles": surf.shape[0], "v_poles": surf.shape[1], "u_degree": surf.u_degree,
+                    "v_degree": surf.v_degree, "u_periodic": bool(surf.u_periodic),
+                    "method": rec.choice.method, "method_reason": rec.choice.reason,
+                    "pairing": args.pairing, "noise_estimate_mm": rec.choice.noise_mm,
+                    "tolerance_mm": rec.tolerance, "refit_error_mm": rec.refit_error},
+        "fit": _stats(proj.distance),
+    }
+    if seg_info is not None:
+        summary["segmented"] = {"continuity": args.continuity, "sections": seg_info,
+                                "joint_curvature_rel_max": max(i["joint_curvature_rel_max"] for i in seg_info)}
+    if getattr(rec, "added_points", None) is not None:
+        summary["surface"]["pairing_added_points"] = int(rec.added_points)
+    if slicing is not None:
+        summary["slicing"] = slicing
+    if fairing is not None:
+        summary["fairing"] = fairing
+    if getattr(rec, "surface_fairing", None) is not None:
+        summary["surface_fairing"] = rec.surface_fairing
+    summary["fairness"] = realdata.fairness_summary(surf, pts, sections.span_axis)
+
+    t_exp0 = time.perf_counter()
+    shape = None
+    if args.output or args.nominal:
+        from bladerecon.fc.freecad_env import import_freecad
+        say("loading FreeCAD")
+        import_freecad()
+    if args.output:
+        from bladerecon.fc.export import write_step
+        shape = realdata.make_shape(surf, args)
+        write_step(shape, args.output)
+        summary["output"] = {"step": args.output, "solid": bool(args.solid)}
+        say(f"wrote {args.output}")
+    t_export = time.perf_counter()
+
+    nominal_dev = None
+    if args.nominal:
+        from bladerecon.fc.compare import deviation_to_nominal, surface_samples
+        say(f"comparing with nominal {args.nominal}")
+        uv, samples = surface_samples(surf)
+        # one read of the nominal and one projection for both point sets: the start grid over
+        # the nominal is the expensive part
+        dev = deviation_to_nominal(np.concatenate([samples, measured]), args.nominal)
+        on_surface, on_points = dev.signed[: len(samples)], dev.signed[len(samples):]
+        summary["nominal"] = {**_stats(on_surface, signed=True), "file": args.nominal,
+                              "samples": int(samples.shape[0]), "method": dev.method}
+        summary["measured_to_nominal"] = _stats(on_points, signed=True)
+        nominal_dev = (uv, samples, on_surface, on_points)
+    t_compare = time.perf_counter()
+    summary["seconds"] = {"read": t_read - t_start, "fit": t_fit - t_read, "export": t_export - t_exp0,
+                          "compare": t_compare - t_export, "total": t_compare - t_start}
+    if args.report:
+        from bladerecon.report.reconstruct import write_report
+        write_report(args.report, summary, sections, measured, proj, nominal_dev)
+        if fairing is not None:
+            realdata.write_fairing_csv(args.report, fairing_table)
+        say(f"report in {args.report}")
+    return summary

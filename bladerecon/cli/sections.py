@@ -1,0 +1,126 @@
+"""``python3 -m bladerecon sections INPUT [--nominal NOMINAL] [--plots DIR] --json``: section parameters.
+
+Issue 3 §4. For every section of INPUT: LE/TE points, chord, stagger, max thickness and its
+position, LE/TE radius, inlet/outlet metal angles, thickness at given offsets
+(:mod:`bladerecon.core.sections.parameters`). With ``--nominal`` (STEP/IGES/BREP/FCStd cut in
+the plane of every measured section, or a dense section file) the nominal's values and the
+differences measured − nominal. ``--plots DIR`` writes one PNG per section with the
+segmentation coloured. Lengths mm, angles degrees.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+
+import numpy as np
+
+from bladerecon.core.errors import BladeReconError
+
+__all__ = ["add_parser", "run_sections"]
+
+SHAPE_SUFFIXES = (".step", ".stp", ".iges", ".igs", ".brep", ".brp", ".fcstd")
+
+
+def _floats(text: str, what: str) -> tuple[float, ...]:
+    try:
+        return tuple(float(v) for v in text.split(",") if v.strip())
+    except ValueError:
+        raise BladeReconError(f"{what} {text!r}: give numbers separated by commas, e.g. 1,2,5") from None
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser("sections", help="section parameters (chord, stagger, thickness, LE/TE radius, angles)",
+                       description="Segment every section (LE, TE, suction, pressure) and measure its "
+                                   "parameters; lengths in mm, angles in degrees.")
+    p.add_argument("input", help="point file with sections (any format 'reconstruct' reads)")
+    p.add_argument("--nominal", help="nominal: STEP/IGES/BREP/FCStd (cut in each section's plane) or a section file")
+    p.add_argument("--plots", metavar="DIR", help="write section_NN.png per section (segmentation coloured)")
+    p.add_argument("--offsets", default="", metavar="MM,...", help="thickness at these distances from LE and TE")
+    p.add_argument("--beta1", type=float, help="inlet flow angle (deg from axial) for the throat point (eq. 5)")
+    p.add_argument("--beta2", type=float, help="outlet flow angle (deg from axial) for the throat point (eq. 5)")
+    p.add_argument("--lift", type=float, default=1.0, help="tangential lift coefficient C_L of eq. 5 (default 1.0)")
+    p.add_argument("--max-gap", type=float, metavar="MM", help="largest gap between points (default 15 %% of the section)")
+    p.add_argument("--step", type=float, default=0.05, help="point spacing of the nominal cut (mm, default 0.05)")
+    p.add_argument("--lenient", action="store_true",
+                   help="report a radius as null (with a warning) instead of stopping when an edge has too few points")
+    p.add_argument("--json", action="store_true", help="print the list of sections as JSON on stdout")
+    p.add_argument("--quiet", action="store_true", help="no progress messages on stderr")
+    p.set_defaults(run=run_sections)
+
+
+def _say(args, msg: str) -> None:
+    if not args.quiet:
+        print(f"bladerecon: {msg}", file=sys.stderr, flush=True)
+
+
+def _read_sections(path: str):
+    from bladerecon.core.io.readers import read_points
+    from bladerecon.core.sections.ordering import build_sections
+    ss = build_sections(read_points(path))
+    return [s.points for s in ss.sections], ss.span_axis, not ss.sections[0].reordered
+
+
+def _throat(args):
+    if args.beta1 is None and args.beta2 is None:
+        return None
+    if args.beta1 is None or args.beta2 is None:
+        raise BladeReconError("the throat point needs both --beta1 and --beta2 (flow angles in degrees)")
+    from bladerecon.core.sections.segmentation import ThroatSpec
+    return ThroatSpec(args.beta1, args.beta2, args.lift)
+
+
+def _nominal_sections(args, segs, span_axis) -> list[np.ndarray]:
+    if os.path.splitext(args.nominal)[1].lower() in SHAPE_SUFFIXES:
+        from bladerecon.fc.slicing import cut_sections
+        origins = np.array([s.frame.origin for s in segs])
+        normals = np.array([s.frame.normal for s in segs])
+        return cut_sections(args.nominal, origins, normals, args.step)
+    pts, _, _ = _read_sections(args.nominal)
+    if len(pts) == len(segs):
+        return pts
+    # nearest nominal section along the span axis
+    h_nom = np.array([p.mean(axis=0) @ span_axis for p in pts])
+    return [pts[int(np.argmin(np.abs(h_nom - s.frame.origin @ span_axis)))] for s in segs]
+
+
+def run_sections(args: argparse.Namespace) -> list:
+    from bladerecon.core.sections.parameters import compare_with_nominal, measure_section, segment_sections
+
+    offsets = _floats(args.offsets, "--offsets")
+    if args.plots and not os.path.isdir(os.path.dirname(os.path.abspath(args.plots)) or "."):
+        raise BladeReconError(f"--plots {args.plots}: the parent folder does not exist; create it first")
+    throat = _throat(args)
+    _say(args, f"reading {args.input}")
+    pts, axis, measured_start = _read_sections(args.input)
+    segs = segment_sections(pts, axis, measured_start, throat=throat, max_gap=args.max_gap)
+    params = [measure_section(s, offsets, strict_radius=not args.lenient) for s in segs]
+    out = [p.as_dict() for p in params]
+    if args.nominal:
+        _say(args, f"nominal {args.nominal}")
+        nom_pts = _nominal_sections(args, segs, axis)
+        nsegs = []
+        hint = None
+        for k, (s, q) in enumerate(zip(segs, nom_pts)):
+            from bladerecon.core.sections.segmentation import segment_section
+            # the nominal's LE is the end nearest the measured LE
+            ns = segment_section(q, k, axis, le_hint=s.lift(s.le)[0], throat=throat)
+            nsegs.append(ns)
+        nparams = [measure_section(s, offsets, strict_radius=not args.lenient) for s in nsegs]
+        out = [compare_with_nominal(o, n.as_dict()) for o, n in zip(out, nparams)]
+    else:
+        nsegs = [None] * len(segs)
+    if args.plots:
+        os.makedirs(args.plots, exist_ok=True)
+        from bladerecon.report.section_plots import plot_section
+        for s, p, ns in zip(segs, params, nsegs):
+            plot_section(os.path.join(args.plots, f"section_{s.index:02d}.png"), s, p, ns)
+        _say(args, f"plots in {args.plots}")
+    for o in out:
+        _say(args, f"section {o['index']}: chord {o['chord']:.3f} stagger {o['stagger_deg']:.2f}° "
+                   f"t_max {o['max_thickness']:.3f} r_LE {_fmt(o['le_radius'])} r_TE {_fmt(o['te_radius'])}")
+    return out
+
+
+def _fmt(v) -> str:
+    return "n/a" if v is None else f"{v:.3f}"

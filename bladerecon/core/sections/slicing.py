@@ -1,0 +1,198 @@
+"""Unordered point clouds -> blade sections: slicing by planes or by cylinders (issue 6 §5).
+
+A laser scan or a CFD surface mesh gives points with no section structure. Sections are cut
+out of it:
+
+* **planes** normal to an axis (``--slice N`` equally spaced, or ``--slice-at z1,z2,...``),
+  a slab of width ``slab`` (mm) around each plane;
+* **cylinders** about a rotor axis (``--slice-radii r1,r2,...``), a shell of width ``slab``
+  around each radius — rotor blades are measured and designed on surfaces of revolution.
+
+The points of a slab are moved onto the cutting plane (along the axis) or cylinder (along
+the radius): the blade surface contains the span direction to first order, so this slides a
+point along the surface rather than off it; ``project=False`` keeps them where they are.
+
+In each slab the points are split into connected groups (neighbours closer than
+``link`` · the median nearest-neighbour distance): a second group of comparable size means
+the slab caught two blades (an error); small groups are outliers, removed and reported.
+Ordering along the section is left to :func:`bladerecon.core.sections.ordering.build_sections`
+(camber-line order, the same as for any unordered section).
+
+Units: mm.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
+
+from bladerecon.core.errors import BladeReconError
+from bladerecon.core.io.readers import PointSet
+
+__all__ = ["Slice", "read_cloud", "plane_positions", "slice_planes", "slice_cylinders", "slices_to_pointset",
+           "MIN_SLICE_POINTS"]
+
+MIN_SLICE_POINTS = 12
+
+
+@dataclass(frozen=True)
+class Slice:
+    """The points of one slab, moved onto its cutting surface (mm)."""
+
+    position: float            # plane height along the axis, or cylinder radius (mm)
+    points: np.ndarray         # (n, 3) kept points
+    index: np.ndarray          # (n,) row of each kept point in the cloud
+    outliers: np.ndarray       # rows in the cloud of the points removed as outliers
+    kind: str                  # "plane" | "cylinder"
+
+
+def read_cloud(path: str, scale: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+    """Points of an unordered cloud: lines of 3 numbers (x y z) or 4 (id x y z); '#' comments.
+
+    ``scale`` multiplies the coordinates (1000 for a file in metres). Returns ``(points (N, 3)
+    mm, line numbers (N,))``.
+    """
+    pts, lines = [], []
+    try:
+        with open(path, encoding="utf-8") as fh:
+            for no, text in enumerate(fh, 1):
+                s = text.strip()
+                if not s or s.startswith("#"):
+                    continue
+                cells = s.replace(",", " ").replace(";", " ").split()
+                if len(cells) not in (3, 4):
+                    raise BladeReconError(f"{path}, line {no}: expected 'x y z' or 'id x y z', got {len(cells)} values")
+                try:
+                    pts.append([float(c) for c in cells[-3:]])
+                except ValueError:
+                    raise BladeReconError(f"{path}, line {no}: '{s[:60]}' is not a line of numbers") from None
+                lines.append(no)
+    except OSError as exc:
+        raise BladeReconError(f"{path}: cannot read the cloud ({exc.strerror})") from None
+    if len(pts) < MIN_SLICE_POINTS:
+        raise BladeReconError(f"{path}: {len(pts)} points; a cloud to slice needs many more")
+    P = np.asarray(pts, float) * scale
+    if not np.all(np.isfinite(P)):
+        raise BladeReconError(f"{path}: the cloud holds NaN or infinite coordinates")
+    return P, np.asarray(lines)
+
+
+def plane_positions(points: np.ndarray, axis: np.ndarray, n: int, margin: float = 0.05) -> np.ndarray:
+    """``n`` equally spaced plane heights (mm) along ``axis``, ``margin`` of the extent kept off each end."""
+    if n < 2:
+        raise BladeReconError(f"--slice {n}: need at least 2 slices for a surface")
+    h = np.asarray(points) @ axis
+    lo, hi = h.min(), h.max()
+    return np.linspace(lo + margin * (hi - lo), hi - margin * (hi - lo), n)
+
+
+def _default_slab(positions: np.ndarray) -> float:
+    p = np.sort(np.asarray(positions, float))
+    return 0.25 * float(np.diff(p).min()) if p.size > 1 else 1.0
+
+
+def _groups(points: np.ndarray, link: float, extent_share: float = 0.08) -> tuple[np.ndarray, np.ndarray]:
+    """Connected groups (labels, sizes): points closer than the link distance are joined.
+
+    The link distance is the larger of ``link`` x the median nearest-neighbour distance and
+    ``extent_share`` of the slab's size (bounding-box diagonal): randomly spaced scan points
+    leave gaps of many median spacings along a section, but not of 8 % of the blade, and
+    neighbouring blades stand a passage width apart.
+    """
+    tree = cKDTree(points)
+    d, _ = tree.query(points, 2)
+    size = float(np.linalg.norm(np.ptp(points, axis=0)))
+    r = max(link * float(np.median(d[:, 1])), extent_share * size)
+    pairs = tree.query_pairs(r, output_type="ndarray")
+    import scipy.sparse as sp
+    n = points.shape[0]
+    g = sp.coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n)) if len(pairs) else sp.coo_matrix((n, n))
+    _, labels = connected_components(g, directed=False)
+    return labels, np.bincount(labels)
+
+
+def _clean(points: np.ndarray, rows: np.ndarray, where: str, link: float, two_blade_share: float) -> tuple:
+    """Split a slab into groups: the largest is the section, a second large one is an error."""
+    labels, sizes = _groups(points, link)
+    order = np.argsort(-sizes)
+    if sizes.size > 1 and sizes[order[1]] >= two_blade_share * points.shape[0]:
+        raise BladeReconError(
+            f"{where}: the slab holds two separate groups of {sizes[order[0]]} and {sizes[order[1]]} points "
+            "(two blades?): crop the cloud to one blade, or narrow the slice range")
+    keep = labels == order[0]
+    return points[keep], rows[keep], rows[~keep]
+
+
+def _finish(kind: str, pos: float, P: np.ndarray, rows: np.ndarray, where: str, link: float,
+            two_blade_share: float, min_points: int) -> Slice:
+    if P.shape[0] < min_points:
+        raise BladeReconError(f"{where}: {P.shape[0]} points in the slab, a section needs at least {min_points}: "
+                              "widen --slab or move the slice")
+    P, kept, out = _clean(P, rows, where, link, two_blade_share)
+    if P.shape[0] < min_points:
+        raise BladeReconError(f"{where}: {P.shape[0]} points left after removing outliers, needs at least "
+                              f"{min_points}: widen --slab")
+    return Slice(float(pos), P, kept, out, kind)
+
+
+def slice_planes(points: np.ndarray, positions, axis=(0.0, 0.0, 1.0), slab: float | None = None,
+                 project: bool = True, link: float = 6.0, two_blade_share: float = 0.2,
+                 min_points: int = MIN_SLICE_POINTS) -> list[Slice]:
+    """Slabs of width ``slab`` (mm; default a quarter of the smallest gap) around planes
+    normal to ``axis`` at heights ``positions`` (mm), points moved onto the planes."""
+    a = np.asarray(axis, float) / np.linalg.norm(axis)
+    pos = np.asarray(positions, float)
+    slab = _default_slab(pos) if slab is None else float(slab)
+    if not slab > 0:
+        raise BladeReconError(f"--slab must be a positive width in mm, got {slab}")
+    P = np.asarray(points, float)
+    h = P @ a
+    out = []
+    for z in pos:
+        m = np.flatnonzero(np.abs(h - z) <= 0.5 * slab)
+        Q = P[m] - np.outer(h[m] - z, a) if project else P[m]
+        out.append(_finish("plane", z, Q, m, f"slice at {z:.4f} mm", link, two_blade_share, min_points))
+    return out
+
+
+def slice_cylinders(points: np.ndarray, radii, axis=(0.0, 0.0, 1.0), centre=(0.0, 0.0, 0.0),
+                    slab: float | None = None, project: bool = True, link: float = 6.0,
+                    two_blade_share: float = 0.2, min_points: int = MIN_SLICE_POINTS) -> list[Slice]:
+    """Shells of width ``slab`` (mm) around cylinders of the given radii (mm) about the axis
+    through ``centre``; points moved radially onto the cylinders."""
+    a = np.asarray(axis, float) / np.linalg.norm(axis)
+    c = np.asarray(centre, float)
+    rad = np.asarray(radii, float)
+    if np.any(rad <= 0):
+        raise BladeReconError("--slice-radii must be positive radii in mm")
+    slab = _default_slab(rad) if slab is None else float(slab)
+    if not slab > 0:
+        raise BladeReconError(f"--slab must be a positive width in mm, got {slab}")
+    P = np.asarray(points, float)
+    d = P - c
+    along = d @ a
+    radial = d - np.outer(along, a)
+    r = np.linalg.norm(radial, axis=1)
+    out = []
+    for rk in rad:
+        m = np.flatnonzero(np.abs(r - rk) <= 0.5 * slab)
+        Q = c + np.outer(along[m], a) + radial[m] * (rk / r[m])[:, None] if project else P[m]
+        out.append(_finish("cylinder", rk, Q, m, f"cylinder slice at r = {rk:.4f} mm", link,
+                           two_blade_share, min_points))
+    return out
+
+
+def slices_to_pointset(slices: list[Slice], lines: np.ndarray, source: str) -> PointSet:
+    """The slices as a :class:`PointSet` (one section per slice) for ``build_sections``.
+
+    A point caught by two slabs is an error (the slabs overlap): narrow ``--slab``.
+    """
+    rows = np.concatenate([s.index for s in slices])
+    if np.unique(rows).size != rows.size:
+        raise BladeReconError(f"{source}: neighbouring slabs share points: narrow --slab")
+    pts = np.concatenate([s.points for s in slices])
+    sec = np.concatenate([np.full(len(s.points), k) for k, s in enumerate(slices)])
+    names = tuple(f"{s.kind}@{s.position:.3f}" for s in slices)
+    return PointSet(pts, sec, np.asarray(lines)[rows], names, source, "cloud-slices")
