@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 # BladeRecon: headless registration (runs in FreeCAD and FreeCADCmd). Keep it light.
 #
 # FreeCAD puts an addon's folder on sys.path before running this file; the lines below

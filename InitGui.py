@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 # BladeRecon workbench: only the Workbench class. Commands live in bladerecon.gui.commands.
 #
 # This file is exec'd by FreeCAD, not imported: every import happens inside the methods.

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 # BladeRecon: install what is missing, test, demo, benchmark.
 # FreeCAD's Python modules load only in the Python they were built for: Debian's /usr/bin/python3.
 PYTHON ?= /usr/bin/python3

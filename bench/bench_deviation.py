@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Deviation speed: a million measured points against a B-spline blade, beside OpenCASCADE.
 
 Run from the repository root: ``/usr/bin/python3 bench/bench_deviation.py [--points N]``.

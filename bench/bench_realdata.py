@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Real measurement data (issue 6): non-grid rows (seed 003), bad points (seed 001), unordered clouds.
 
 Run from the repository root: ``/usr/bin/python3 bench/bench_realdata.py``. Prints three

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Issue 3 figures: section parameters, measurement plan, joint continuity (run from the repo root).
 
     /usr/bin/python3 bench/bench_segmentation.py

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Benchmark: adaptive analysis-suitable T-spline fitting (seed 002) against its paper and
 against tensor-product NURBS.
 

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """FreeCAD's own ways to put a surface through blade sections, done as a careful user would.
 
 Every way gets each section as an (n, 3) array (mm) in the same order (counter-clockwise

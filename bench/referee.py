@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """OpenCASCADE's point-to-shape distance, pruned by bounding boxes so large shapes stay fast.
 
 The distance of each point is still OCC's own ``Part.Vertex(p).distToShape(...)`` on the

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """BladeRecon against FreeCAD's own ways: accuracy, fit time and core speed, as Markdown tables.
 
 Run from the repository root: ``/usr/bin/python3 bench/run_all.py``. Prints the tables and

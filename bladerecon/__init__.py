@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """BladeRecon: measured blade sections to a native B-spline surface (FreeCAD workbench).
 
 Data flows one way: points -> sections -> curves -> surface -> analysis -> export.

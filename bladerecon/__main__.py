@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """``python3 -m bladerecon``: see :mod:`bladerecon.cli.main`."""
 import sys
 

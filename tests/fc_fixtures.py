@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Shared B-spline test surfaces (core types only) and the FreeCAD import for tests/test_fc_*.py.
 
 FreeCAD tests skip only if :func:`bladerecon.fc.freecad_env.import_freecad` cannot find

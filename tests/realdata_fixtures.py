@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Synthetic real-data cases on the analytic SampleBlade (exact truth): bad points, non-grid rows."""
 from __future__ import annotations
 

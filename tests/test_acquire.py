@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Live acquisition on real pseudo-terminals with the simulated controller: nothing lost,
 every fault counted, the journal byte-identical to what was sent; bad input; throughput.
 

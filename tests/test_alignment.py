@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Best-fit alignment (point-to-plane ICP): bladerecon.core.analysis.alignment (issue 4 §2).
 
 The "measured" points are built on the sample blade's nominal B-spline surface itself,

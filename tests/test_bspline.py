@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """B-spline basics against scipy's BSpline (an implementation we did not write)."""
 from __future__ import annotations
 

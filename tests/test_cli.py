@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """The headless command as a user runs it: JSON summary, bad input, no half-written outputs."""
 from __future__ import annotations
 

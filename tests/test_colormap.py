@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Colour maps of the 3D view (numpy only): checked against analytic shapes and plain definitions."""
 from __future__ import annotations
 

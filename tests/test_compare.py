@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Shape error against a nominal: + where material is outside, on the core and the OCC path."""
 from __future__ import annotations
 

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """bladerecon.core never imports FreeCAD: every module under it imports in a clean interpreter
 without pulling in FreeCAD, FreeCADGui or Part."""
 from __future__ import annotations

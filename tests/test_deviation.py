@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Signed deviation from a nominal shape and the ``deviation`` command (issue 4 §1, 5).
 
 Exactness is judged by OpenCASCADE (``occ_distances``: ``distToShape`` per point), never

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Bad-point detection and fairing (seed 001 §1.1): checked against the analytic blade's truth."""
 from __future__ import annotations
 

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Fairness numbers (seed 004 criteria) on shapes with known answers."""
 from __future__ import annotations
 

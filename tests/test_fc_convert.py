@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """bladerecon.fc.convert: OpenCASCADE evaluates a converted spline exactly like the core."""
 from __future__ import annotations
 

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """bladerecon.fc.freecad_env: FreeCAD is found without help, quietly, or a one-line hint is given."""
 from __future__ import annotations
 

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """bladerecon.fc.export: STEP in millimetres written atomically, capped solids, reading CAD files."""
 from __future__ import annotations
 

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """bladerecon.fc.occ_measure: OpenCASCADE point-to-shape distances, the referee of tests and benchmarks."""
 from __future__ import annotations
 

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """The document objects without a GUI: recompute chain, results against independent referees,
 failure marking, saving and reopening, STEP export and the report glue.
 

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Interpolation and least squares: exactness, end derivatives, sparse solves, scipy cross-check."""
 from __future__ import annotations
 

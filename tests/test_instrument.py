@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """The instrument protocol parser, sequence tracking and calibration (core: numpy only)."""
 from __future__ import annotations
 

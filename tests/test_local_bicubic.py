@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Seed 004 local bicubic interpolation: exact at the grid, C1 Bézier patches, sewn shell."""
 from __future__ import annotations
 

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Seed 003 non-grid fitting: rows of different lengths -> hierarchical least-squares surface."""
 from __future__ import annotations
 

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Measurement plan (seed 000 §2.1): compression, achieved Hausdorff, reconstruction from the plan.
 
 The nominal here is the analytic sample blade itself (exact at every height), so the

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Point -> surface / curve minimum distance (seed 001 §2 eqs. 10-11): bladerecon.core.geometry.projection.
 
 Checked against closed forms, orthogonality, dense brute force (then polished by a local

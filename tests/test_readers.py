@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """bladerecon.core.io.readers: formats, bad input, speed (plain pytest, no FreeCAD)."""
 from __future__ import annotations
 

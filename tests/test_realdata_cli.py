@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """reconstruct --fair / --poles / --slice-radii as a user runs them (JSON summary, errors)."""
 from __future__ import annotations
 

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Reconstruction on the analytic sample blade and the NASA rotors.
 
 Accuracy is measured by OpenCASCADE (``occ_distances``: OCC's own point-to-face distance),

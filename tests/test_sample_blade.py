@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """The analytic sample blade: exact geometry, outward normals, sampling layouts."""
 from __future__ import annotations
 

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """The bundled nominal of the sample blade is the true blade within a micrometre (measured by OCC)."""
 from __future__ import annotations
 

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Section parameters against analytic sections with known answers and against the NASA tables."""
 from __future__ import annotations
 

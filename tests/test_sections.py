@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """bladerecon.core.sections.ordering: ordering, orientation, span order, bad sections (no FreeCAD)."""
 from __future__ import annotations
 

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Segmentation into LE / suction / TE / pressure against the analytic sample blade's own pieces."""
 from __future__ import annotations
 

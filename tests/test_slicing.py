@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Unordered clouds cut into sections by planes and cylinders; bad input named."""
 from __future__ import annotations
 

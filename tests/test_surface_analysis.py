@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Curvatures, principal directions, combs and zebra: bladerecon.core.analysis.surface_analysis."""
 from __future__ import annotations
 

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Alternating mesh-curve fairing and region repair on a grid of true blade points."""
 from __future__ import annotations
 

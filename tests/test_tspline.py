@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Adaptive analysis-suitable T-spline fitting (seed 002) and its Bézier-patch export.
 
 References the code did not produce: knot vectors worked out by hand on a small T-mesh, a

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """The workbench runs for real in the FreeCAD GUI (under Xvfb) as an addon from the user Mod folder.
 
 A temporary HOME gets ``.local/share/FreeCAD/Mod/BladeRecon`` -> the repository (a symlink).

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Write the shipped sample measurements of the analytic sample blade.
 
 Run from the repository root:  /usr/bin/python3 tools/make_sample_data.py

@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: LGPL-2.1-or-later
 # Screenshot of a deviation report in headless Chromium (for the README; not part of make test).
 #   tools/report_screenshot.sh [REPORT_DIR] [OUT.png]
 # Without REPORT_DIR it first writes the sample blade's report (robust rigid best fit).

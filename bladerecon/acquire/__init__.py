@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Live acquisition from a measuring instrument over a serial line (pyserial).
 
 ``reader``: journal-first reading with reconnection; ``simulator``: a controller that

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Read an instrument over a serial line without losing anything that arrived.
 
 Every chunk of bytes is appended to the raw journal, flushed and ``fsync``-ed *before* it

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """A simulated instrument controller that plays a measurement of the sample blade.
 
 :func:`plan_measurement` builds the byte lines of a measurement with faults injected

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """The ``acquire`` and ``simulate-instrument`` subcommands of ``python3 -m bladerecon``."""
 from __future__ import annotations
 

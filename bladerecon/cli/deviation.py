@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """``python3 -m bladerecon deviation MEASURED --nominal NOMINAL ...``: signed deviation from the nominal.
 
 Issue 4 §5. Parser and runner of the subcommand (``cli.py`` only wires them in). Lengths in

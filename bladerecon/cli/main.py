@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Headless entry point: ``python3 -m bladerecon reconstruct measured.csv -o blade.step ...``.
 
 Errors a user can cause print one line ``bladerecon: error: ...`` on stderr and exit with

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """``python3 -m bladerecon plan NOMINAL --heights z1,z2,... --tolerance 0.05 -o plan.csv --json``.
 
 Issue 3 §3: a measurement plan with the fewest points (seed 000 §2.1,

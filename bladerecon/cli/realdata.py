@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Options of ``reconstruct`` for real measurement data (issue 6): slicing, fairing, non-grid.
 
 Kept out of cli.py so that ``build_parser`` / ``run_reconstruct`` change by a few lines:

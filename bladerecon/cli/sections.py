@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """``python3 -m bladerecon sections INPUT [--nominal NOMINAL] [--plots DIR] --json``: section parameters.
 
 Issue 3 §4. For every section of INPUT: LE/TE points, chord, stagger, max thickness and its

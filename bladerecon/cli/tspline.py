@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """``python3 -m bladerecon tspline INPUT --tolerance EPS -o OUT.step --json``: adaptive ASTS fit.
 
 Seed 002: analysis-suitable T-spline fitting with local refinement, exported as bicubic

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """The one exception type for errors a user can cause (bad file, too few points, ...)."""
 from __future__ import annotations
 

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """The reconstruction job: ordered sections in, one periodic × clamped cubic B-spline surface out.
 
 points → sections (``sections.build_sections``) → section curves (``section_curves``) →

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Global tolerances in one place (millimetres unless stated)."""
 from __future__ import annotations
 

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """FreeCAD adapters: numpy <-> Part conversion, STEP I/O, OpenCASCADE measurements.
 
 Modules here import FreeCAD and Part (through :func:`bladerecon.fc.freecad_env.import_freecad`,

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Shape error against a nominal blade (STEP/IGES/BREP/FCStd): signed distances in mm.
 
 Stage "analysis" of the pipeline (seed 000 §2.4 shape error; seed 001 §2 minimum distance).

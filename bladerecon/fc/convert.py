@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Copy the core's B-spline dataclasses to and from ``Part.BSplineCurve``/``Part.BSplineSurface``.
 
 Both sides use OpenCASCADE's convention (distinct knots + multiplicities, periodic poles not

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Signed deviation of measured points from a nominal shape, with optional best-fit (mm, degrees).
 
 Issue 4 §1-2, 5. For every point the closest point on the nominal (any face of a STEP,

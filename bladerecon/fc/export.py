@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """STEP export, closed solids with planar end caps, and reading CAD files into a shape.
 
 Units are millimetres throughout: STEP files are written with ``SI_UNIT(.MILLI.,.METRE.)``

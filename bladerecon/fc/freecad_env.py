@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Find and import FreeCAD + Part from a plain Python interpreter.
 
 FreeCAD's Python modules (``FreeCAD.so``, ``Part.so``) live in a ``lib`` folder that is not

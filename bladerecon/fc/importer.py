@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """File > Open / File > Import of measured blade points (registered in Init.py).
 
 FreeCAD calls ``open(filename)`` (a new document) or ``insert(filename, docname)``; both build a

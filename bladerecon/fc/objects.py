@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Parametric document objects of the workbench: proxies and ``make_*`` factories (mm, degrees).
 
 MeasuredPoints -> BladeSections (LE/TE marked) and BladeSurface (native B-spline face) ->

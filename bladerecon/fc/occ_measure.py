@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Point-to-shape distances computed by OpenCASCADE: the independent referee of tests and benchmarks.
 
 Nothing here uses the core's evaluator or projector: the distance of each point is the

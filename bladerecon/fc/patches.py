@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """The local bicubic surface (seed 004 eqs. 9-11) as a sewn shell of Bézier patch faces.
 
 Each cell of the C1 double-knot B-spline (:func:`bladerecon.core.surface.local_bicubic.bezier_patches`)

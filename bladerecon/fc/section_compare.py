@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Section parameters measured vs nominal, section by section (issue 3 §4 in the issue 4 report).
 
 Every measured section is segmented and measured (:mod:`bladerecon.core.sections.parameters`);

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Cut a nominal blade (STEP/IGES/BREP/FCStd) by planes with Part: dense nominal sections.
 
 ``Part.Shape.slice(normal, d)`` returns the wires of the section ``n·x = d``; the wire

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """T-spline → CAD: Bézier patches as ``Part.BezierSurface`` faces sewn into one shell, STEP.
 
 The core's Bézier extraction (:func:`bladerecon.core.surface.tspline.bezier_patches`) gives one

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Workbench command: acquire points live from an instrument, then build MeasuredPoints.
 
 The reader (:class:`bladerecon.acquire.reader.InstrumentReader`, journal first) runs in a

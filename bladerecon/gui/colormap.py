@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Colours for the 3D view: deviation, curvature and zebra maps, section colours (numpy only).
 
 Everything here maps plain arrays to RGB in [0, 1] so that the view providers only copy the

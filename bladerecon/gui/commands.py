@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Workbench commands. Importing this module registers them with FreeCADGui.
 
 Each command's work is a replayable step of :mod:`bladerecon.gui.actions` (an undo

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Where the workbench's icons and .ui files are, computed from this file (no FreeCAD import)."""
 from __future__ import annotations
 

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Task panels for the options of the long or tunable commands (forms in resources/ui/*.ui).
 
 ``accept()`` runs the same replayable step as the console would (``bladerecon.gui.commands``);

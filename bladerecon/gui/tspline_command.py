@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Workbench command: fit an adaptive analysis-suitable T-spline (seed 002) to a point file.
 
 Asks for the point file and the tolerance (mm), then adds the sewn Bézier-patch shell

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """View providers of the BladeRecon objects: coloured points, LE/TE marks, zebra, curvature and
 deviation maps drawn with coin (pivy) on a tessellation of the B-spline face.
 

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """The inspection report of ``deviation --report DIR``: report.html, PNGs, deviations.csv (mm).
 
 Issue 4 §3-4. ``report.html`` is self-contained in its folder (PNGs beside it, no network):

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """The report folder of ``reconstruct --report DIR``: summary, per-point CSV, plots (mm).
 
 Files are first written to a temporary folder beside DIR and moved in only when all of them

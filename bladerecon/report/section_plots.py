@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """PNG of a segmented section (matplotlib, Agg): regions coloured, camber line, edge circles.
 
 Coordinates are those of the section's plane (mm): e1 = +x projected, e2 = normal x e1.

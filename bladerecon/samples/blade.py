@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """An analytic blade whose true surface is known exactly: the sample for demo, tests, benchmarks.
 
 Units: millimetres and degrees at every interface (radians only inside).

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Best-fit alignment of measured points to the nominal: point-to-plane ICP (mm, degrees).
 
 Issue 4 §2. The measured points P_i are moved by a rigid transform x -> R x + t so that the

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Fairness measures of section curves and surfaces as numbers (seed 004 §1 and §3 criteria).
 
 * inflections per section — sign changes of the in-plane curvature (seed 004 criterion 3;

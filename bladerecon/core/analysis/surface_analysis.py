@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Surface analysis of a B-spline blade: curvatures, principal directions, combs, zebra (1/mm).
 
 Issue 4 §3. All from the first and second fundamental forms at (u, v), vectorised over

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Vectorised B-spline basics: parameters, knot vectors, basis functions, evaluation.
 
 Every function works on arrays of parameters at once (no Python loop per point; the only

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Curve fitting: global interpolation and least-squares approximation, sparse solves only.
 
 All systems are banded (clamped) or cyclic-banded (periodic); they are assembled as sparse

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Exact minimum distance from many points to a B-spline surface or curve.
 
 Seed 001 §2: the deviation of a measured point P from the reconstructed surface S is the

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """The hand-off types between the core and FreeCAD: plain, frozen B-spline data.
 
 Convention is OpenCASCADE's (``Part.BSplineCurve/Surface.buildFromPolesMultsKnots``) so

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """The instrument line protocol, sequence tracking and the laser-machine calibration.
 
 Pure Python + numpy: no serial I/O here (that is :mod:`bladerecon.acquire`). Units are

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Stage 1 of the pipeline: a measured point file -> :class:`PointSet` (units: mm).
 
 Three formats, recognised by content (never by file extension):

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Rebuild a segmented section with curvature-continuous joints (seed 000 §2.2, eq. 6 or equivalent).
 
 Seed 000 fits the suction and pressure sides with cubic B-splines and the LE/TE regions with

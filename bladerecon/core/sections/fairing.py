@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Bad-point detection and section fairing (seed 001 §1.1, seed 004 §2).
 
 Seed 001: with a measuring system accurate to 2 µm, a point farther than 3 µm from a fair

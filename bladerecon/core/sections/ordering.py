@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Stage 2 of the pipeline: :class:`PointSet` -> ordered, oriented closed sections (mm).
 
 The output is what seed 000 §2.4 needs before interpolation: sections listed along the

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Section parameters of a blade section, as CMM blade packages report them (mm, degrees).
 
 Measured on a :class:`~bladerecon.core.sections.segmentation.Segmentation` (section in its own

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Measurement plan from a dense nominal section: "less measured points" (seed 000 §2.1).
 
 For every dense nominal section (a closed loop of points, e.g. a STEP nominal cut by a plane

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Section segmentation: leading-edge region, trailing-edge region, suction side, pressure side.
 
 Seed 000 §2.2. Every closed section is worked on in its own plane (best-fit plane of its

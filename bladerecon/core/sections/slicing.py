@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Unordered point clouds -> blade sections: slicing by planes or by cylinders (issue 6 §5).
 
 A laser scan or a CFD surface mesh gives points with no section structure. Sections are cut

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Surface fairing on a grid of mesh points (seed 001 §1.2, seed 004 §2 and §3 step 5).
 
 The surface is held as a grid ``(S, N, 3)``: S sections (u mesh curves, closed) of N

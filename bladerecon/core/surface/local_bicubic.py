@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Local bicubic (Bézier-patch) interpolation of a grid of blade points (seed 004 eqs. 9-11).
 
 Seed 004 §2 (after The NURBS Book §9.3.5): one bicubic Bézier patch per grid cell. The

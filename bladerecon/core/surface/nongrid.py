@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Surface fitting from non-grid rows (seed 003, Mao, Wang & Liu): rows of different lengths.
 
 In-situ measuring machines deliver rows (sections) with different point counts. Seed 003

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Point pairing between sections by angles (seed 000 §2.3, Fig. 5) and the paired-grid surface.
 
 Adjacent sections A, B have different point counts. On each side of the blade (LE → TE and

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Section curves: one closed cubic B-spline per measured section, by interpolation or smoothing.
 
 Stage "sections → curves" of the pipeline. Two ways to make a section curve:

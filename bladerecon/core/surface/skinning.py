@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Blade surface from section curves: LE/TE-anchored common parameterisation and skinning.
 
 Stage "curves → surface" of the pipeline (seed 000 §2.3-2.4):

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
 """Adaptive analysis-suitable T-spline (ASTS) fitting, seed 002 (Lu et al. 2020).
 
 Everything here is numpy/scipy. The pieces, with the seed's section numbers:
