@@ -79,8 +79,10 @@ fi
 for d in /proc /sys /dev /dev/pts; do bind "$d" || skip "mounting refused (mount --bind $d into the root)"; done
 mkdir -p "$root/dev/shm"; mountpoint -q "$root/dev/shm" || true
 
-work="$root/work"
+# One folder per run, so that two runs (two developers' checks) never share a tree.
+work="$root/work/run.$$"
 rm -rf "$work"; mkdir -p "$work"
+trap 'cleanup; rm -rf "$work"' EXIT
 if [ "${FREECAD1_TREE:-}" = worktree ]; then
   tar -C "$top" --exclude=./.cache --exclude=./.git --exclude='*/__pycache__' --exclude=./demo_out -cf - . \
     | tar -C "$work" --one-top-level=main -xf -
@@ -93,7 +95,7 @@ inner="make test"
 [ -n "${FREECAD1_PYTEST:-}" ] && inner="/usr/bin/python3 -m pytest ${FREECAD1_PYTEST}"
 versions='/usr/bin/python3 -c "import sys; sys.path.append(\"/usr/lib/freecad/lib\"); import FreeCAD, numpy; print(\"test-freecad1: FreeCAD\", \".\".join(FreeCAD.Version()[:3]), \"Python\", sys.version.split()[0], \"numpy\", numpy.__version__)"'
 chroot "$root" env -i PATH=/usr/sbin:/usr/bin:/sbin:/bin HOME=/root LANG=C.UTF-8 CI="${CI:-}" \
-  sh -c "$versions >&2; cd /work/main && PYTHONPATH=/work/main $inner"
+  sh -c "$versions >&2; cd /work/run.$$/main && PYTHONPATH=/work/run.$$/main $inner"
 rc=$?
 [ $rc -eq 0 ] && say "passed on FreeCAD 1.0" || say "FAILED on FreeCAD 1.0 (exit $rc)"
 exit $rc
