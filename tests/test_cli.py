@@ -131,7 +131,7 @@ def test_duplicate_point_and_wrong_section_order(tmp_path):
     lines = text.splitlines()
     lines.insert(3, lines[2])                       # repeat a point of section 0
     r = run("reconstruct", _write(tmp_path / "dup.csv", "\n".join(lines) + "\n"))
-    assert r.returncode == 2 and "duplicate" in r.stderr.lower() or "repeat" in r.stderr.lower()
+    assert r.returncode == 2 and ("duplicate" in r.stderr.lower() or "repeat" in r.stderr.lower()), r.stderr
     rows = _section_csv(3).splitlines()
     header, body = rows[0], rows[1:]
     shuffled = body[12:24] + body[:12] + body[24:]   # sections 1, 0, 2: not monotonic along the span

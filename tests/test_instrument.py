@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import math
 import time
 
 import numpy as np
@@ -165,5 +164,4 @@ def test_parser_speed_in_memory():
     acq.points()
     rate = len(plan.lines) / (time.perf_counter() - t)
     print(f"\nparser, in memory: {rate:,.0f} records/s")
-    assert acq.summary()["points"] == 20000 and rate > 20000
-    assert math.isfinite(rate)
+    assert acq.summary()["points"] == 20000      # speed is printed, not asserted: make bench times it

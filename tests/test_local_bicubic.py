@@ -63,7 +63,6 @@ def test_c1_across_patch_boundaries_and_close_to_the_blade(blade_grid):
 
 
 def test_sewn_shell_in_opencascade(blade_grid):
-    pytest.importorskip("numpy")
     from bladerecon.fc.freecad_env import import_freecad
     _, Part = import_freecad()
     from bladerecon.fc.occ_measure import occ_distances

@@ -7,6 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from bladerecon.core.errors import BladeReconError
+
 from bladerecon.samples.blade import SampleBlade, nominal_surface
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -17,7 +19,7 @@ def fc():
     try:
         from bladerecon.fc.freecad_env import import_freecad
         import_freecad()
-    except Exception as exc:  # pragma: no cover
+    except BladeReconError as exc:  # FreeCAD not found (a broken FreeCAD import fails the test)
         pytest.skip(f"FreeCAD not available: {exc}")
     from bladerecon.fc import export, occ_measure
     return export, occ_measure

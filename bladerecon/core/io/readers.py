@@ -40,7 +40,8 @@ __all__ = ["PointSet", "read_points", "write_points_csv"]
 
 _NO_STRUCTURE = (
     "points have no section structure: add a 'section' column to the CSV or separate "
-    "sections by blank lines; slicing unordered clouds is not supported yet"
+    "sections by blank lines; an unordered cloud: cut it into sections with reconstruct "
+    "--slice N (planes) or --slice-radii R1,R2,.. (cylinders)"
 )
 _UNIT_SUFFIX = re.compile(r"[\s_]*[\[(]?\s*mm\s*[\])]?$")
 
