@@ -43,7 +43,7 @@ DATA = ROOT / "tests" / "data"
 RESULTS = BENCH / "results"
 
 from bladerecon.core.geometry.bspline import surface_derivatives  # noqa: E402
-from bladerecon.core.geometry import projection  # noqa: E402
+from bladerecon.core.geometry.projection import cache as projection  # noqa: E402  (its _cache)
 from bladerecon.fc.freecad_env import import_freecad  # noqa: E402
 
 FreeCAD, Part = import_freecad()

@@ -16,7 +16,13 @@ from scipy.interpolate import BSpline
 from scipy.optimize import minimize_scalar
 from scipy.spatial import cKDTree
 
-from bladerecon.core.geometry import projection as proj
+from bladerecon.core.geometry.projection import cache as proj_cache
+from bladerecon.core.geometry.projection import evaluation as proj_evaluation
+from bladerecon.core.geometry.projection import grid as proj_grid
+from bladerecon.core.geometry.projection import parallel as proj_parallel
+from bladerecon.core.geometry.projection import points as proj_points
+from bladerecon.core.geometry.projection import search as proj_search
+from bladerecon.core.geometry.projection import surface as proj_surface
 from bladerecon.core.geometry.bspline import curve_curvature, curve_derivatives, evaluate_surface, surface_derivatives
 from bladerecon.core.errors import BladeReconError
 from bladerecon.core.geometry.projection import (
@@ -160,7 +166,7 @@ def test_patch_table_matches_nurbs_book_evaluator(make):
     v = rng.uniform(*s.v_domain, 3000)
     v[:5] = s.v_domain[1]
     ref = surface_derivatives(s, u, v, 2)
-    ders = proj._SurfaceModel(s).evaluate(u, v, 2)[4]
+    ders = proj_evaluation._SurfaceModel(s).evaluate(u, v, 2)[4]
     for (k, l), a in zip([(0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2)], ders):
         scale = max(np.abs(ref[:, k, l]).max(), np.abs(ref[:, 0, 0]).max())
         assert np.abs(a.T - ref[:, k, l]).max() <= 1e-12 * scale
@@ -173,7 +179,7 @@ def test_interval_lookup_matches_binary_search():
         just_below, just_above = np.nextafter(b[1:], -np.inf), np.nextafter(b[:-1], np.inf)
         u = np.concatenate([rng.uniform(b[0], b[-1], 2000), b, just_below, just_above])
         ref = np.clip(np.searchsorted(b, u, side="right") - 1, 0, b.size - 2)
-        assert np.array_equal(proj._Intervals(b)(u), ref)
+        assert np.array_equal(proj_evaluation._Intervals(b)(u), ref)
 
 
 # --------------------------------------------------------------------------- analytic
@@ -359,10 +365,10 @@ def test_local_projection_from_given_parameters():
 def test_blocks_and_threads_give_the_same_answer(monkeypatch):
     s = blade_surface()
     pts = _near_blade_points(s, 40_000, np.random.default_rng(8))
-    monkeypatch.setattr(proj, "_THREADS", 1)
+    monkeypatch.setattr(proj_parallel, "_THREADS", 1)
     one = project_points_to_surface(s, pts)
-    monkeypatch.setattr(proj, "_THREADS", 2)
-    monkeypatch.setattr(proj, "_CHUNK", 7000)
+    monkeypatch.setattr(proj_parallel, "_THREADS", 2)
+    monkeypatch.setattr(proj_surface, "_CHUNK", 7000)
     two = project_points_to_surface(s, pts)
     assert np.array_equal(one.distance, two.distance) and np.array_equal(one.u, two.u)
 
@@ -399,16 +405,16 @@ def test_feet_round_a_thin_edge_are_found(monkeypatch):
     ref = project_points_to_surface(s, _TE_POINTS, U[k], V[k])
     assert np.all(ours.distance <= ref.distance + 1e-9), ours.distance - ref.distance
     assert ours.converged.all()
-    monkeypatch.setattr(proj, "_TURN", np.inf)              # without the restarts round the edge
+    monkeypatch.setattr(proj_search, "_TURN", np.inf)       # without the restarts round the edge
     without = project_points_to_surface(s, _TE_POINTS)
     assert (without.distance > ref.distance + 1e-6).sum() >= 3
     monkeypatch.undo()                                      # the restarts back
     for n_grid in (30_000, 120_000):                        # the same feet from other start grids
-        monkeypatch.setattr(proj, "_MAX_GRID_SAMPLES", n_grid)
-        proj._cache.clear()
+        monkeypatch.setattr(proj_grid, "_MAX_GRID_SAMPLES", n_grid)
+        proj_cache._cache.clear()
         other = project_points_to_surface(s, _TE_POINTS)
         assert np.allclose(other.distance, ours.distance, rtol=0, atol=1e-12), n_grid
-    proj._cache.clear()
+    proj_cache._cache.clear()
 
 
 def _nominal():
@@ -424,8 +430,8 @@ def test_strip_bound_holds_inside_the_cells_round_a_sample(make):
     points at random inside random cells and on points off them (periodic, clamped and
     creased directions)."""
     s = make()
-    proj._cache.clear()
-    _, grid = proj._surface_grid(s)
+    proj_cache._cache.clear()
+    _, grid = proj_cache._surface_grid(s)
     assert grid.strips is not None
     rng = np.random.default_rng(41)
     n = 100_000
@@ -451,7 +457,7 @@ def test_strip_bound_holds_inside_the_cells_round_a_sample(make):
     iso = np.linalg.norm(P - grid.tree.data[k], axis=1) - grid.cover[k]
     if make is _nominal:
         assert long.sum() > 1000 and np.mean(bound[long] > iso[long]) > 0.5
-    proj._cache.clear()
+    proj_cache._cache.clear()
 
 
 def test_forked_blocks_threads_and_one_process_agree(monkeypatch):
@@ -459,30 +465,30 @@ def test_forked_blocks_threads_and_one_process_agree(monkeypatch):
     memory) or on threads; a child that fails has its blocks rerun by the parent."""
     s = blade_surface()
     pts = _near_blade_points(s, 30_000, np.random.default_rng(18))
-    monkeypatch.setattr(proj, "_CHUNK", 4000)
-    monkeypatch.setattr(proj, "_MIN_BATCH", 500)
+    monkeypatch.setattr(proj_surface, "_CHUNK", 4000)
+    monkeypatch.setattr(proj_search, "_MIN_BATCH", 500)
     runs = {}
     for name, threads, fork in (("one", 1, False), ("forked", 2, True), ("threads", 2, False)):
-        monkeypatch.setattr(proj, "_THREADS", threads)
-        monkeypatch.setattr(proj, "_can_fork", lambda fork=fork: fork)
+        monkeypatch.setattr(proj_parallel, "_THREADS", threads)
+        monkeypatch.setattr(proj_parallel, "_can_fork", lambda fork=fork: fork)
         runs[name] = project_points_to_surface(s, pts)
     monkeypatch.undo()
     monkeypatch.setenv("BLADERECON_PROCESSES", "0")
-    assert not proj._can_fork()
+    assert not proj_parallel._can_fork()
     for name in ("forked", "threads"):
         for field in ("u", "v", "distance", "signed"):
             assert np.array_equal(getattr(runs[name], field), getattr(runs["one"], field)), (name, field)
     parent = os.getpid()
-    out = proj._shared((12,))
+    out = proj_parallel._shared((12,))
 
     def work(s0: int, e0: int, workers: int) -> None:
         if os.getpid() != parent:
             raise RuntimeError("a child that fails")
         out[s0:e0] = np.arange(s0, e0)
 
-    monkeypatch.setattr(proj, "_THREADS", 3)
-    monkeypatch.setattr(proj, "_can_fork", lambda: True)
-    proj._for_each_block(12, work, chunk=2, shared=True)
+    monkeypatch.setattr(proj_parallel, "_THREADS", 3)
+    monkeypatch.setattr(proj_parallel, "_can_fork", lambda: True)
+    proj_parallel._for_each_block(12, work, chunk=2, shared=True)
     assert np.array_equal(out, np.arange(12))
 
 
@@ -521,7 +527,7 @@ def test_many_points_on_a_plane_curve_in_blocks():
     c3 = _clamped_curve()
     c = BSplineCurve(poles=np.asarray(c3.poles)[:, :2], knots=c3.knots, mults=c3.mults,
                      degree=c3.degree, periodic=c3.periodic)
-    P = np.random.default_rng(7).normal(size=(proj._CHUNK + 5000, 2)) * 5.0
+    P = np.random.default_rng(7).normal(size=(proj_parallel._CHUNK + 5000, 2)) * 5.0
     many = project_points_to_curve(c, P)
     few = project_points_to_curve(c, P[-500:])
     assert np.array_equal(many.distance[-500:], few.distance)
@@ -583,7 +589,7 @@ def test_bad_input():
     with pytest.raises(BladeReconError, match="row 2"):          # inf, and a sum that overflows
         project_points_to_surface(s, np.array([[1e308, 0.0, 0.0], [1e308, 0.0, 0.0], [0.0, -np.inf, 0.0]]))
     big = np.array([[1e308, 0.0, 0.0], [1e308, 0.0, 0.0]])           # finite, though their sum is not
-    assert proj._check_points(big, 3) is not None
+    assert proj_points._check_points(big, 3) is not None
     with pytest.raises(BladeReconError, match=r"\(m, 3\)"):
         project_points_to_surface(s, np.zeros((4, 2)))
     with pytest.raises(ValueError):
@@ -599,7 +605,7 @@ def test_speed_one_million_points_print():
     m = int(os.environ.get("BLADERECON_BENCH_POINTS", "1000000"))
     s = blade_surface()
     rng = np.random.default_rng(12)
-    model, batches, count = proj._SurfaceModel(s), [], 0
+    model, batches, count = proj_evaluation._SurfaceModel(s), [], 0
     while count < m:
         S, Su, Sv = model.evaluate(rng.random(m), rng.random(m), 1)[4]
         n = np.cross(Su.T, Sv.T)
@@ -612,5 +618,5 @@ def test_speed_one_million_points_print():
     res = project_points_to_surface(s, pts)
     wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
     print(f"\n{pts.shape[0]} points on a 40 x 8-pole surface: {wall:.2f} s wall, {cpu:.2f} s CPU "
-          f"({proj._THREADS} threads, load {os.getloadavg()[0]:.1f}); converged {res.converged.mean():.6f}")
+          f"({proj_parallel._THREADS} threads, load {os.getloadavg()[0]:.1f}); converged {res.converged.mean():.6f}")
     assert res.converged.all() and res.distance.max() < 0.5
