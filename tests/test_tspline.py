@@ -17,6 +17,9 @@ import pytest
 from scipy.interpolate import LSQBivariateSpline
 
 from bladerecon.core.surface import tspline as ts
+from bladerecon.core.surface.tspline import editing as ts_editing
+from bladerecon.core.surface.tspline import seam as ts_seam
+from bladerecon.core.surface.tspline import tmesh as ts_tmesh
 from bladerecon.core.errors import BladeReconError
 
 
@@ -34,7 +37,7 @@ def _random_mesh(seed: int, splits: int = 40, mu: float = 0.05) -> ts.TMesh:
     faces = np.array([[0.0, 0.5, 0.0, 0.5], [0.5, 1.0, 0.0, 0.5], [0.0, 0.5, 0.5, 1.0], [0.5, 1.0, 0.5, 1.0]])
     for _ in range(splits):
         faces = ts.split_longer_side(faces, rng.choice(len(faces), size=1))
-    return ts.TMesh(ts._complete_strip(ts.add_strip(faces, mu), mu), mu)
+    return ts.TMesh(ts_editing._complete_strip(ts.add_strip(faces, mu), mu), mu)
 
 
 # ----------------------------------------------------------------------------- knots by hand
@@ -43,7 +46,7 @@ def test_local_knots_by_hand():
     vectors below are read off the drawing by the T-spline rule (seed 002 §1.1)."""
     mu = 0.1
     inner = np.array([[0, .5, 0, .5], [.5, 1, 0, .5], [0, .5, .5, 1], [.5, .75, .5, 1], [.75, 1, .5, 1]], float)
-    mesh = ts.TMesh(ts._complete_strip(ts.add_strip(inner, mu), mu), mu)
+    mesh = ts.TMesh(ts_editing._complete_strip(ts.add_strip(inner, mu), mu), mu)
     nodes, ku, kv = ts.local_knots(mesh)
     expect = {
         (0.75, 0.5): ([0, .5, .75, 1, 1.1], [-.1, 0, .5, 1, 1.1]),
@@ -69,14 +72,14 @@ def test_ray_casting_matches_brute_force(seed):
     """Fine-grid look-ups equal a direct ray cast against every edge segment."""
     mesh = _random_mesh(seed)
     nodes, ku, kv = ts.local_knots(mesh)
-    bku = ts._ray_knots(nodes[:, 0], nodes[:, 1], mesh.vertical_segments())
-    bkv = ts._ray_knots(nodes[:, 1], nodes[:, 0], mesh.horizontal_segments())
+    bku = ts_tmesh._ray_knots(nodes[:, 0], nodes[:, 1], mesh.vertical_segments())
+    bkv = ts_tmesh._ray_knots(nodes[:, 1], nodes[:, 0], mesh.horizontal_segments())
     np.testing.assert_array_equal(ku, bku)
     np.testing.assert_array_equal(kv, bkv)
     ref = mesh.nodes()
     assert len(ref) == len(nodes) and set(map(tuple, ref)) == set(map(tuple, nodes))
-    has = ts._edge_presence(nodes, mesh.vertical_segments(), mesh.horizontal_segments())
-    np.testing.assert_array_equal(has, ts._Topology(mesh.faces).has_edges())
+    has = ts_tmesh._edge_presence(nodes, mesh.vertical_segments(), mesh.horizontal_segments())
+    np.testing.assert_array_equal(has, ts_tmesh._Topology(mesh.faces).has_edges())
 
 
 # ----------------------------------------------------------------------------- AS property
@@ -119,7 +122,7 @@ class _Cover:
         self.h = mesh.horizontal_segments()
 
     def covered_by(self, other) -> bool:
-        topo = ts._Topology(other.faces)
+        topo = ts_tmesh._Topology(other.faces)
         for seg, cover, lines, along in ((self.v, topo.vert, topo.U, topo.V), (self.h, topo.horiz.T, topo.V, topo.U)):
             for x, a, b in seg:
                 i = np.searchsorted(lines, x)
@@ -334,7 +337,7 @@ def test_seam_reduction_closes_any_tspline(c1):
     values that are not the constraint samples; checked by plain evaluation and, for the
     derivative, by a one-sided 3-point difference (error O(h²)), not by the constraint rows."""
     mesh, _ = ts.make_analysis_suitable(_random_mesh(3))
-    mesh, _ = ts._seam_suitable(mesh, 40)
+    mesh, _ = ts_seam._seam_suitable(mesh, 40)
     nodes, ku, kv = ts.local_knots(mesh)
     T = ts.seam_reduction(ku, kv, c1)
     n, k = T.shape
