@@ -20,7 +20,6 @@ a hint before any of this work.
 from __future__ import annotations
 
 import os
-import re
 import time
 from dataclasses import dataclass
 from typing import Any
@@ -75,47 +74,14 @@ class DeviationResult:
 def read_measured(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray | None, tuple[str, ...]]:
     """Points (m, 3) mm from any file the foundation reads; section labels optional.
 
-    Returns (points, section index per point or None, section names).
+    Returns (points, section index per point or None for a cloud, section names).
     """
     from bladerecon.core.io.readers import read_points
 
-    try:
-        ps = read_points(path)
-        return np.asarray(ps.points, float), np.asarray(ps.section), ps.section_names
-    except BladeReconError as err:
-        if "no section structure" not in str(err):
-            raise
-    return _read_unlabelled(os.fspath(path)), None, ()
-
-
-def _read_unlabelled(source: str) -> np.ndarray:
-    """One block of 'x y z' lines, or a CSV with an x,y,z header and no section column."""
-    with open(source, encoding="utf-8-sig", errors="replace") as fh:
-        lines = fh.read().splitlines()
-    data = [(k, ln.strip()) for k, ln in enumerate(lines, 1) if ln.strip() and not ln.lstrip().startswith("#")]
-    first = data[0][1]
-    cols = [0, 1, 2]
-    sep = None
-    if not re.match(r"^[-+.\d]", first):                 # a header row
-        sep = ";" if first.count(";") > first.count(",") else ("," if "," in first else None)
-        names = [c.strip().strip("\"'").lower().split("[")[0].split("(")[0].strip() for c in first.split(sep)]
-        cols = [names.index(c) for c in "xyz"]
-        data = data[1:]
-    elif "," in first:
-        sep = ","
-    out = np.empty((len(data), 3))
-    for i, (line_no, text) in enumerate(data):
-        cells = text.split(sep) if sep else text.split()
-        if len(cells) == 4 and sep is None and cols == [0, 1, 2]:
-            cells = cells[1:]                            # 'id x y z'
-        try:
-            out[i] = [float(cells[c].replace(",", ".") if sep == ";" else cells[c]) for c in cols]
-        except (ValueError, IndexError):
-            raise BladeReconError(f"{source}, line {line_no}: '{text[:60]}' is not a point 'x y z': "
-                                  "correct or delete that line") from None
-    if not np.all(np.isfinite(out)):
-        raise BladeReconError(f"{source}: NaN or infinite coordinates: correct or delete those lines")
-    return out
+    ps = read_points(path, require_sections=False)
+    if not ps.structured:
+        return np.asarray(ps.points, float), None, ()
+    return np.asarray(ps.points, float), np.asarray(ps.section), ps.section_names
 
 
 # --------------------------------------------------------------------------- nominal

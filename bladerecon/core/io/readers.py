@@ -28,6 +28,7 @@ from __future__ import annotations
 import os
 import re
 import tempfile
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Sequence
@@ -57,6 +58,8 @@ class PointSet:
         section_names: one name per section index.
         source: the path the points were read from.
         format: ``'csv'``, ``'xyz-blocks'`` or ``'section-table'``.
+        structured: False for one block of points with no section labels (read with
+            ``require_sections=False``): a cloud, not one measured section.
     """
 
     points: np.ndarray
@@ -65,6 +68,7 @@ class PointSet:
     section_names: tuple[str, ...]
     source: str
     format: str
+    structured: bool = True
 
     def __post_init__(self) -> None:
         for name in ("points", "section", "line"):
@@ -83,16 +87,28 @@ class PointSet:
         return self.line[self.section == k]
 
 
-def read_points(path: str | os.PathLike) -> PointSet:
+def read_points(path: str | os.PathLike, require_sections: bool = True) -> PointSet:
     """Read a point file (mm); the format ('csv', 'xyz-blocks', 'section-table', see the
     module docstring) is detected from the first line that is not blank or ``#``.
+
+    ``require_sections=False``: a file with no section structure (one block of points, a CSV
+    without a ``section`` column) is one section named ``1`` instead of an error (a cloud for
+    ``deviation``).
+
+    Plain numeric tables are read by a vectorised path (numpy's C parser); anything it does not
+    take (comments, quotes, text labels, a bad cell, decimal commas) goes to the careful parser,
+    which names the file, line and column of what is wrong. Both give the same PointSet.
 
     Raises:
         BladeReconError: missing/unreadable/empty file, bad header or cell, NaN/inf,
             wrong point count, or points with no section structure.
     """
     source = str(path)
-    lines = _read_lines(source)
+    raw = _read_bytes(source)
+    fast = _read_fast(source, raw, require_sections)
+    if fast is not None:
+        return fast
+    lines = _split_lines(raw)
     first = next((i for i, ln in enumerate(lines) if ln.strip() and not _is_comment(ln)), None)
     if first is None:
         raise BladeReconError(f"{source}: no points in the file (only blank or '#' lines): "
@@ -101,7 +117,7 @@ def read_points(path: str | os.PathLike) -> PointSet:
     tokens = re.split(r"[,;\s]+", head)
     n_numeric = sum(_is_number(t) for t in tokens)
     if n_numeric == 0:
-        return _read_csv(source, lines, first)
+        return _read_csv(source, lines, first, require_sections)
     if "," in head or ";" in head:
         raise BladeReconError(
             f"{source}, line {first + 1}: comma-separated values without a header row: "
@@ -112,7 +128,7 @@ def read_points(path: str | os.PathLike) -> PointSet:
         raise BladeReconError(
             f"{source}, line {first + 1}: '{head[:60]}' is neither a header naming x, y, z nor "
             "a line of numbers: use a CSV with a header, or 'x y z' lines")
-    return _read_xyz_blocks(source, lines, first, len(tokens))
+    return _read_xyz_blocks(source, lines, first, len(tokens), require_sections)
 
 
 def write_points_csv(path: str | os.PathLike, points: np.ndarray, section: np.ndarray,
@@ -170,8 +186,8 @@ def _write_atomically(target: Path, text: str) -> None:
 
 # --- file level ------------------------------------------------------------------------
 
-def _read_lines(source: str) -> list[str]:
-    """File text split into lines (1-based line k is ``lines[k-1]``), newline style agnostic."""
+def _read_bytes(source: str) -> bytes:
+    """The file's bytes; a missing, unreadable or empty file is a one-line error."""
     try:
         raw = Path(source).read_bytes()
     except FileNotFoundError:
@@ -183,6 +199,11 @@ def _read_lines(source: str) -> list[str]:
                               "check its permissions") from None
     if not raw.strip():
         raise BladeReconError(f"{source}: the file is empty: give one point per line")
+    return raw
+
+
+def _split_lines(raw: bytes) -> list[str]:
+    """File text split into lines (1-based line k is ``lines[k-1]``), newline style agnostic."""
     try:
         text = raw.decode("utf-8-sig")
     except UnicodeDecodeError:
@@ -251,10 +272,10 @@ def _to_float(source: str, idx: list[int], cells: list[str], column: str,
 
 
 def _point_set(source: str, fmt: str, xyz: np.ndarray, section: np.ndarray,
-               idx: list[int], names: Sequence[str]) -> PointSet:
+               idx: list[int], names: Sequence[str], structured: bool = True) -> PointSet:
     return PointSet(points=np.ascontiguousarray(xyz, dtype=float), section=section.astype(int),
                     line=np.asarray(idx, dtype=int) + 1, section_names=tuple(names),
-                    source=source, format=fmt)
+                    source=source, format=fmt, structured=structured)
 
 
 def _require_structure(source: str, idx: list[int], block: np.ndarray) -> None:
@@ -262,10 +283,98 @@ def _require_structure(source: str, idx: list[int], block: np.ndarray) -> None:
         raise BladeReconError(f"{source}, lines {idx[0] + 1}–{idx[-1] + 1}: {_NO_STRUCTURE}")
 
 
+# --- the vectorised path ----------------------------------------------------------------
+
+def _read_fast(source: str, raw: bytes, require_sections: bool) -> PointSet | None:
+    """A plain numeric CSV (``,`` with a header) or ``x y z`` / ``id x y z`` blocks, read with
+    numpy's C parser and the line structure found on the bytes; None for anything else (the
+    careful parser then reads it, and names what is wrong)."""
+    if raw.startswith(b"\xef\xbb\xbf"):
+        raw = raw[3:]
+    if b"\r" in raw:
+        raw = raw.replace(b"\r\n", b"\n").replace(b"\r", b"\n")
+    if b"#" in raw or b'"' in raw or b"'" in raw:
+        return None
+    start, first = 0, 0                       # byte offset and 0-based number of the first line
+    while True:
+        end = raw.find(b"\n", start)
+        line = raw[start:] if end < 0 else raw[start:end]
+        if line.strip():
+            break
+        if end < 0:
+            return None
+        start, first = end + 1, first + 1
+    try:
+        head = line.decode("ascii").strip()
+    except UnicodeDecodeError:
+        return None
+    tokens = re.split(r"[,;\s]+", head)
+    n_numeric = sum(_is_number(t) for t in tokens)
+    if n_numeric == 0:                                   # a CSV header
+        sep, names, col = _header(source, head, first)
+        if sep != "," or end < 0:
+            return None
+        body, body_first, ncol = raw[end + 1:], first + 1, len(names)
+        pick = [col[c] for c in "xyz"] + ([col["section"]] if "section" in col else [])
+    elif n_numeric == len(tokens) in (3, 4) and "," not in head and ";" not in head:
+        sep, body, body_first, ncol = None, raw[start:], first, len(tokens)
+        pick = list(range(ncol - 3, ncol))
+    else:
+        return None
+    data = _data_lines(body)
+    if data.size == 0:
+        return None
+    try:   # numpy's C parser reads the file itself (in chunks: faster than from memory)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            # every column: a row with more or fewer values than the first goes to the careful parser
+            table = np.loadtxt(source, delimiter=sep, ndmin=2, dtype=float, comments=None,
+                               skiprows=body_first, encoding="utf-8-sig")
+    except (ValueError, UnicodeDecodeError, IndexError, OSError):
+        return None
+    if table.shape != (data.size, ncol) or not np.isfinite(table).all():
+        return None
+    table = table[:, pick]
+    idx = (data + body_first).tolist()
+    xyz = table[:, :3]
+    fmt = "csv" if sep == "," else "xyz-blocks"
+    if sep == "," and "section" in col:
+        labels = table[:, 3]
+        if not np.all(labels == np.floor(labels)) or np.abs(labels).max() >= 2 ** 53:
+            return None                                  # text-like labels: kept as written
+        section, names_found = _section_labels_of_numbers(labels)
+        return _point_set(source, fmt, xyz, section, idx, names_found)
+    block = np.concatenate([[0], np.cumsum(np.diff(data) > 1)]).astype(int)
+    if require_sections:
+        _require_structure(source, idx, block)
+    return _point_set(source, fmt, xyz, block, idx, [str(b + 1) for b in range(block[-1] + 1)],
+                      structured=bool(block[-1] > 0))
+
+
+def _data_lines(body: bytes) -> np.ndarray:
+    """0-based numbers of the non-empty lines of ``body`` (empty lines separate sections). A
+    line of only spaces counts here but not for numpy's parser: the row counts then differ and
+    the careful parser reads the file."""
+    newline = np.flatnonzero(np.frombuffer(body, dtype=np.uint8) == 10)
+    starts = np.concatenate([[0], newline + 1])
+    ends = np.concatenate([newline, [len(body)]])
+    return np.flatnonzero(ends > starts)
+
+
+def _section_labels_of_numbers(labels: np.ndarray) -> tuple[np.ndarray, list[str]]:
+    """Whole-number section labels -> 0-based index per row in order of first appearance, and
+    the names ('3.0' and '03' are both '3', as the careful parser names them)."""
+    values, first_row, inverse = np.unique(labels, return_index=True, return_inverse=True)
+    order = np.argsort(first_row)
+    rank = np.empty_like(order)
+    rank[order] = np.arange(order.size)
+    return rank[inverse.ravel()], [str(int(values[k])) for k in order]
+
+
 # --- formats ---------------------------------------------------------------------------
 
-def _read_csv(source: str, lines: list[str], first: int) -> PointSet:
-    header = lines[first]
+def _header(source: str, header: str, first: int) -> tuple[str | None, list[str], dict[str, int]]:
+    """A CSV header line -> (separator, column names, {x, y, z[, section]: column})."""
     sep = ";" if header.count(";") > header.count(",") else ","
     if sep not in header:
         sep = None  # one header cell, or whitespace-separated: reported below if unusable
@@ -284,7 +393,11 @@ def _read_csv(source: str, lines: list[str], first: int) -> PointSet:
         raise BladeReconError(
             f"{source}, line {first + 1}: header has no column {', '.join(map(repr, missing))} "
             f"(found {found}): name the coordinate columns x, y, z")
+    return sep, names, col
 
+
+def _read_csv(source: str, lines: list[str], first: int, require_sections: bool = True) -> PointSet:
+    sep, names, col = _header(source, lines[first], first)
     idx, block = _blocks(lines, first + 1)
     if not idx:
         raise BladeReconError(f"{source}, line {first + 1}: header but no data rows: "
@@ -296,8 +409,10 @@ def _read_csv(source: str, lines: list[str], first: int) -> PointSet:
     if "section" in col:
         section, names_found = _section_labels(source, idx, [r[col["section"]] for r in rows])
         return _point_set(source, "csv", xyz, section, idx, names_found)
-    _require_structure(source, idx, block)
-    return _point_set(source, "csv", xyz, block, idx, [str(b + 1) for b in range(block[-1] + 1)])
+    if require_sections:
+        _require_structure(source, idx, block)
+    return _point_set(source, "csv", xyz, block, idx, [str(b + 1) for b in range(block[-1] + 1)],
+                      structured=bool(block[-1] > 0))
 
 
 def _section_labels(source: str, idx: list[int], cells: list[str]) -> tuple[np.ndarray, list[str]]:
@@ -329,7 +444,8 @@ def _label(cell: str) -> str:
     return str(int(v)) if np.isfinite(v) and v == int(v) else s
 
 
-def _read_xyz_blocks(source: str, lines: list[str], first: int, ncol: int) -> PointSet:
+def _read_xyz_blocks(source: str, lines: list[str], first: int, ncol: int,
+                     require_sections: bool = True) -> PointSet:
     if ncol not in (3, 4):
         raise BladeReconError(f"{source}, line {first + 1}: expected 'x y z' (3 numbers) or "
                               f"'id x y z' (4 numbers), found {ncol} values: use one of these "
@@ -341,9 +457,10 @@ def _read_xyz_blocks(source: str, lines: list[str], first: int, ncol: int) -> Po
         _to_float(source, idx, [r[0] for r in rows], "id")
     xyz = np.column_stack([_to_float(source, idx, [r[k] for r in rows], names[k])
                            for k in range(ncol - 3, ncol)])
-    _require_structure(source, idx, block)
-    return _point_set(source, "xyz-blocks", xyz, block, idx,
-                      [str(b + 1) for b in range(block[-1] + 1)])
+    if require_sections:
+        _require_structure(source, idx, block)
+    return _point_set(source, "xyz-blocks", xyz, block, idx, [str(b + 1) for b in range(block[-1] + 1)],
+                      structured=bool(block[-1] > 0))
 
 
 def _read_section_table(source: str, lines: list[str], first: int) -> PointSet:
