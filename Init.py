@@ -1,24 +1,12 @@
 # SPDX-License-Identifier: LGPL-2.1-or-later
 # BladeRecon: headless registration (runs in FreeCAD and FreeCADCmd). Keep it light.
 #
-# FreeCAD puts an addon's folder on sys.path before running this file; the lines below
-# only cover a folder reached some other way (e.g. a symlink into the user Mod folder that
-# FreeCAD resolves differently). This file is exec'd, not imported: no __file__, and names
-# defined here are not visible inside functions, so the code stays at top level.
-import os
-import sys
-
+# FreeCAD (0.20, 1.0) runs this file for an addon in <FreeCAD.getUserAppDataDir()>/Mod/BladeRecon
+# (Linux: ~/.local/share/FreeCAD/Mod/BladeRecon, where the Addon Manager clones it; a symlink
+# there works too) and puts that folder on sys.path first, so `import bladerecon` needs nothing
+# here. ~/.FreeCAD/Mod is not read since 0.20 ("User path has changed ..."): move an addon from
+# there. This file is exec'd, not imported: no __file__; the code stays at top level.
 import FreeCAD
-
-for _bladerecon_root in (
-    os.path.join(FreeCAD.getUserAppDataDir(), "Mod", "BladeRecon"),
-    os.path.join(os.path.expanduser("~"), ".local", "share", "FreeCAD", "Mod", "BladeRecon"),
-    os.path.join(os.path.expanduser("~"), ".FreeCAD", "Mod", "BladeRecon"),
-):
-    if os.path.isfile(os.path.join(_bladerecon_root, "bladerecon", "__init__.py")):
-        if _bladerecon_root not in sys.path:
-            sys.path.append(_bladerecon_root)
-        break
 
 # File > Open / Import of measured points: the module is imported only when a file is chosen.
 FreeCAD.addImportType("BladeRecon measured points (*.csv *.xyz *.pts *.asc *.dat)", "bladerecon.fc.importer")

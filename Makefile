@@ -17,6 +17,7 @@ help:
 	@echo "make test-freecad1   the same suite on FreeCAD 1.0 in a Debian 13 root (.cache/debian13, root only)"
 	@echo "make demo   reconstruct the sample blade into demo_out/"
 	@echo "make bench  run the benchmarks (bench/run_all.py)"
+	@echo "make install   put the bladerecon command on PATH (~/.local/bin, root: /usr/local/bin; PREFIX=DIR)"
 
 # Only packages that are not installed trigger apt-get (messages go to stderr: stdout stays for --json).
 deps:
@@ -62,3 +63,14 @@ demo-acquire: deps
 	$(PYTHON) -m bladerecon acquire --port demo_out/ttyBLADE -o demo_out/acquired.csv \
 	  --journal demo_out/acquired.journal --json && wait && \
 	$(PYTHON) -m bladerecon reconstruct demo_out/acquired.csv --quiet --json
+
+# The `bladerecon` command on PATH: a symlink to tools/bladerecon of this checkout, which runs
+# the package with /usr/bin/python3 (or BLADERECON_PYTHON) from any directory.
+# Root: /usr/local/bin; a user: ~/.local/bin; PREFIX=DIR puts it in DIR/bin.
+PREFIX ?= $(if $(filter 0,$(shell id -u)),/usr/local,$(HOME)/.local)
+.PHONY: install
+install:
+	@mkdir -p "$(PREFIX)/bin" && ln -sfn "$(CURDIR)/tools/bladerecon" "$(PREFIX)/bin/bladerecon"
+	@echo "install: $(PREFIX)/bin/bladerecon -> $(CURDIR)/tools/bladerecon"
+	@case ":$$PATH:" in *":$(PREFIX)/bin:"*) ;; \
+	  *) echo "install: $(PREFIX)/bin is not on your PATH: add it (e.g. in ~/.profile: export PATH=\"$(PREFIX)/bin:\$$PATH\")";; esac

@@ -3,21 +3,26 @@
 
 Errors a user can cause print one line ``bladerecon: error: ...`` on stderr and exit with
 status 2; input files are never written; outputs are written atomically (a failed run leaves
-no half-written STEP or report behind). Progress goes to stderr, the ``--json`` summary to
-stdout. Set ``BLADERECON_DEBUG=1`` to see a traceback for an internal error.
+no half-written STEP or report behind). A command that needs a module this Python lacks
+(FreeCAD, matplotlib, pyserial; numpy and scipy for any command) stops before it reads or
+writes anything, in one line naming the module and the interpreter to run instead.
+Progress goes to stderr, the ``--json`` summary to stdout. Set ``BLADERECON_DEBUG=1`` to see
+a traceback for an internal error.
 """
 from __future__ import annotations
 
 import argparse
+import importlib
+import importlib.util
 import json
 import os
+import shlex
 import sys
-import importlib
 
 from bladerecon import __version__
 from bladerecon.core.errors import BladeReconError
 
-__all__ = ["main", "build_parser"]
+__all__ = ["main", "build_parser", "needed_modules", "missing_modules", "DEFAULT_PYTHON"]
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -36,9 +41,135 @@ COMMAND_MODULES: tuple[str, ...] = ("bladerecon.cli.reconstruct", "bladerecon.cl
                                     "bladerecon.cli.plan", "bladerecon.cli.tspline", "bladerecon.cli.acquire")
 
 
+# The interpreter FreeCAD's Python modules are built for (Debian/Ubuntu); BLADERECON_PYTHON
+# names another (tools/bladerecon runs the same one).
+DEFAULT_PYTHON = "/usr/bin/python3"
+# Every command: the core is numpy + scipy (the command modules import numpy at the top).
+BASE_MODULES = ("numpy", "scipy")
+_SHAPE_SUFFIXES = (".step", ".stp", ".iges", ".igs", ".brep", ".brp", ".fcstd")
+# Debian's package names, for the hint when this Python is the right one but lacks a module.
+_LABEL = {"serial": "pyserial"}    # the module ``serial`` comes in the package pyserial
+_DEBIAN = {"numpy": "python3-numpy", "scipy": "python3-scipy", "matplotlib": "python3-matplotlib",
+           "serial": "python3-serial", "FreeCAD": "freecad"}
+
+
+def _shape(path: str | None) -> bool:
+    return bool(path) and os.path.splitext(path)[1].lower() in _SHAPE_SUFFIXES
+
+
+def needed_modules(args: argparse.Namespace) -> list[str]:
+    """The optional modules this command with these options will import (besides numpy/scipy).
+
+    ``FreeCAD`` (with Part) for any STEP/IGES/BREP/FCStd read or written, ``matplotlib`` for
+    plots (reports, section plots), ``serial`` (pyserial) for a real port.
+    """
+    need: list[str] = []
+    command = args.command
+    if command == "reconstruct":
+        if args.output or args.nominal:
+            need.append("FreeCAD")
+        if args.report:
+            need.append("matplotlib")
+    elif command == "deviation":
+        need.append("FreeCAD")              # the nominal is a shape (and the measured may be)
+        if args.report:
+            need.append("matplotlib")
+    elif command == "sections":
+        if _shape(args.nominal):            # cut in each section's plane; a section file needs nothing
+            need.append("FreeCAD")
+        if args.plots:
+            need.append("matplotlib")
+    elif command == "plan":
+        if _shape(args.nominal) or args.check or args.surface_within:
+            need.append("FreeCAD")          # cutting the nominal; --check measures against it
+    elif command == "tspline":
+        if args.output:
+            need.append("FreeCAD")
+    elif command in ("acquire", "simulate-instrument"):
+        if getattr(args, "port", None):     # --replay reads a journal, --link makes a pty: no pyserial
+            need.append("serial")
+    return need
+
+
+def _importable(name: str) -> bool:
+    """``import name`` would find it (a None in sys.modules blocks an import: not importable)."""
+    if name in sys.modules:
+        return sys.modules[name] is not None
+    try:
+        return importlib.util.find_spec(name) is not None
+    except (ImportError, ValueError):
+        return False
+
+
+def _freecad_problem() -> str | None:
+    """None when FreeCAD can be imported here, else what is wrong (cheap: no import)."""
+    if _importable("FreeCAD"):
+        return None
+    from bladerecon.fc import freecad_env
+
+    folder = freecad_env.find_freecad_lib()
+    if folder is None:
+        return "no FreeCAD"
+    built_for = freecad_env.freecad_python_version(folder)
+    here = f"{sys.version_info.major}.{sys.version_info.minor}"
+    if built_for is not None and built_for != here:
+        return f"no FreeCAD it can load (the one in {folder} is built for Python {built_for}, this is {here})"
+    return None
+
+
+def missing_modules(modules) -> list[tuple[str, str]]:
+    """``(module, problem)`` for each of ``modules`` this Python cannot import; no heavy import."""
+    missing = []
+    for name in modules:
+        if name == "FreeCAD":
+            problem = _freecad_problem()
+        else:
+            problem = None if _importable(name) else f"no {_LABEL.get(name, name)}"
+        if problem:
+            missing.append((name, problem))
+    return missing
+
+
+def _right_python() -> str:
+    return os.environ.get("BLADERECON_PYTHON") or DEFAULT_PYTHON
+
+
+def _is_this_python(path: str) -> bool:
+    if os.path.abspath(path) == os.path.abspath(sys.executable):
+        return True
+    try:   # the same file (python3 -> python3.11), unless this one runs a venv
+        return os.path.samefile(path, sys.executable) and sys.prefix == sys.base_prefix
+    except OSError:
+        return False
+
+
+def interpreter_error(missing: list[tuple[str, str]], argv: list[str]) -> str:
+    """The one line for modules this Python lacks: which, and the command line that has them."""
+    names = [name for name, _ in missing]
+    what = " and ".join(problem for _, problem in missing)
+    python = _right_python()
+    if _is_this_python(python):
+        packages = " ".join(_DEBIAN.get(n, n) for n in names)
+        advice = f"make deps installs it (sudo apt-get install {packages})"
+    else:
+        advice = f"run {python} -m bladerecon {shlex.join(argv)} (make deps installs it)"
+    if "FreeCAD" in names:
+        advice += "; or set FREECAD_LIB to the folder that holds FreeCAD.so"
+    return f"bladerecon: error: this Python ({sys.executable}) has {what}: {advice}"
+
+
 def main(argv: list[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    missing = missing_modules(BASE_MODULES)
+    if missing:    # the parser itself needs numpy (the command modules import it)
+        print(interpreter_error(missing, argv), file=sys.stderr)
+        return 2
     parser = build_parser()
     args = parser.parse_args(argv)
+    missing = missing_modules(needed_modules(args))
+    if missing:    # before any output: a STEP written and then no report is worse than nothing
+        print(interpreter_error(missing, argv), file=sys.stderr)
+        return 2
     try:
         summary = args.run(args)
         if args.command == "simulate-instrument":   # one line: a controlling script reads it at once

@@ -18,13 +18,14 @@ from __future__ import annotations
 import contextlib
 import glob
 import os
+import re
 import sys
 from types import ModuleType
 from typing import Iterator
 
 from bladerecon.core.errors import BladeReconError
 
-__all__ = ["import_freecad", "find_freecad_lib", "candidate_lib_dirs", "stdout_to_stderr"]
+__all__ = ["import_freecad", "find_freecad_lib", "candidate_lib_dirs", "stdout_to_stderr", "freecad_python_version"]
 
 INSTALL_HINT = (
     "install FreeCAD (Debian/Ubuntu: sudo apt-get install freecad) "
@@ -85,6 +86,30 @@ def find_freecad_lib() -> str | None:
     for folder in candidate_lib_dirs():
         if _holds_freecad(folder):
             return folder
+    return None
+
+
+def freecad_python_version(folder: str) -> str | None:
+    """The Python version ("3.11") FreeCAD's module in ``folder`` is linked against, else None.
+
+    Reads the small ``FreeCAD.so``/``.pyd`` for the name of the Python library it needs
+    (``libpython3.11.so.1.0``, ``python311.dll``): cheap, and nothing is loaded. None when the
+    name is not there (a statically linked or unusual build): then only an import can tell.
+    """
+    for name in _MODULE_NAMES:
+        path = os.path.join(folder, name)
+        try:
+            with open(path, "rb") as f:
+                data = f.read(8 << 20)
+        except OSError:
+            continue
+        found = re.search(rb"libpython(3\.\d+)", data)
+        if found:
+            return found.group(1).decode()
+        found = re.search(rb"python3(\d+)\.dll", data, re.IGNORECASE)
+        if found:
+            return "3." + found.group(1).decode()
+        return None
     return None
 
 
