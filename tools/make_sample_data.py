@@ -1,18 +1,31 @@
 # SPDX-License-Identifier: LGPL-2.1-or-later
 """Write the shipped sample measurements of the analytic sample blade.
 
-Run from the repository root:  /usr/bin/python3 tools/make_sample_data.py
+Run from the repository root:
 
-Writes ``resources/sample/measured.csv`` (6 sections x 2000 points, 'uniform' layout),
-``resources/sample/measured_plan.csv`` (6 sections x 65 points, 'plan' layout), both with
-2 um isotropic Gaussian noise (seeds 0 and 1), columns ``section,x,y,z`` in mm to 6 decimals, and
-``resources/sample/README.md``. The output is deterministic: rerunning rewrites the same
-files, and ``resources/sample/nominal.step``: the nominal CAD, a B-spline face through a
+    /usr/bin/python3 tools/make_sample_data.py [--out DIR] [--examples-out DIR] [--no-step]
+
+Writes into ``resources/sample/`` (or ``--out``): ``measured.csv`` (6 sections x 2000 points,
+'uniform' layout), ``measured_plan.csv`` (6 sections x 65 points, 'plan' layout), both with
+2 um isotropic Gaussian noise (fixed seeds 0 and 1), columns ``section,x,y,z`` in mm to 6
+decimals; ``README.md``; and ``nominal.step``: the nominal CAD, a B-spline face through a
 dense grid of true points (:func:`bladerecon.samples.blade.nominal_surface`, needs FreeCAD).
+
+Writes into ``resources/examples/`` (or ``--examples-out``) the small inputs the
+documentation's examples use (see the README.md written there).
+
+The output is byte for byte the same on every run: fixed seeds, fixed number formats, and
+the one thing OpenCASCADE writes that changes from run to run, the time stamp in the STEP
+header's ``FILE_NAME``, replaced by :data:`STEP_TIMESTAMP`. The STEP writer's own version
+string is in the header too, so another OpenCASCADE version writes a different header
+(and may number or format the entities differently); ``tests/test_sample_data.py``
+compares the bytes when the versions match and the geometry otherwise.
 """
 from __future__ import annotations
 
+import argparse
 import dataclasses
+import re
 import sys
 from pathlib import Path
 
@@ -21,12 +34,18 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from bladerecon.samples.blade import SampleBlade, sample_sections, section_heights  # noqa: E402
+from bladerecon.samples.blade import (SampleBlade, sample_sections, section_heights,  # noqa: E402
+                                      t_at_length_fraction)
 
 OUT = ROOT / "resources" / "sample"
+EXAMPLES = ROOT / "resources" / "examples"
 SEEDS = {"uniform": 0, "plan": 1}   # different seeds: independent noise in the two files
 NOISE = 0.002          # mm, sigma per coordinate
 N_SECTIONS = 6
+#: Written in place of the time OpenCASCADE puts in the STEP header (FILE_NAME), so the file
+#: does not change from run to run. The date the shipped sample was first made.
+STEP_TIMESTAMP = "2026-11-22T00:00:00"
+_STEP_FILE_NAME = re.compile(rb"(FILE_NAME\('[^']*',')([^']*)(')")
 
 
 def _write_csv(path: Path, sections: list[np.ndarray]) -> None:
@@ -76,21 +95,128 @@ Blade parameters (lengths mm, angles degrees; hub/tip pairs vary linearly in h):
 """
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", type=Path, default=OUT,
+                        help="folder to write into (default resources/sample)")
+    parser.add_argument("--examples-out", type=Path, default=EXAMPLES,
+                        help="folder for the documentation's example inputs (default resources/examples)")
+    parser.add_argument("--no-step", action="store_true",
+                        help="no nominal.step (the only file that needs FreeCAD)")
+    args = parser.parse_args(argv)
+    out = args.out
     blade = SampleBlade()
-    OUT.mkdir(parents=True, exist_ok=True)
+    out.mkdir(parents=True, exist_ok=True)
     uniform = sample_sections(blade, N_SECTIONS, 2000, "uniform", noise=NOISE,
                               seed=SEEDS["uniform"])
     plan = sample_sections(blade, N_SECTIONS, None, "plan", noise=NOISE, seed=SEEDS["plan"])
-    _write_csv(OUT / "measured.csv", uniform)
-    _write_csv(OUT / "measured_plan.csv", plan)
-    (OUT / "README.md").write_text(_readme(blade, len(plan[0])), encoding="utf-8")
+    _write_csv(out / "measured.csv", uniform)
+    _write_csv(out / "measured_plan.csv", plan)
+    with open(out / "README.md", "w", encoding="utf-8", newline="\n") as fh:
+        fh.write(_readme(blade, len(plan[0])))
     for name, secs in (("measured.csv", uniform), ("measured_plan.csv", plan)):
-        print(f"wrote {OUT / name}: {len(secs)} sections, {sum(len(s) for s in secs)} points")
-    _write_nominal(blade)
+        print(f"wrote {out / name}: {len(secs)} sections, {sum(len(s) for s in secs)} points")
+    _write_examples(blade, args.examples_out)
+    if not args.no_step:
+        _write_nominal(blade, out)
 
 
-def _write_nominal(blade: SampleBlade) -> None:
+# --------------------------------------------------------------------------- examples
+#: Runs of bad points put into sections 1, 3 and 4 of ``bad_points.csv``: (fraction of the
+#: section where the run starts, points in the run, displacement along the normal in mm).
+BAD_RUNS = ((0.12, 1, 0.010), (0.30, 3, 0.020), (0.62, 5, -0.030), (0.85, 1, 0.200))
+#: The calibration of the example capture (mm): the sensor sits 12.5 mm above the table's
+#: zero, the table axis 0.5 mm off the machine's z axis.
+EXAMPLE_CALIBRATION = {
+    "comment": "example laser machine calibration, mm (see docs/instrument-protocol.md)",
+    "beam_direction": [-1, 0, 0],
+    "sensor_offset": [0, 0, 12.5],
+    "rotary_axis_point": [0.5, -0.2, 0],
+    "rotary_axis_direction": [0, 0, 1],
+    "d_range": [5, 45],
+}
+
+_EXAMPLES_README = """# Example inputs for the documentation
+
+Written by `tools/make_sample_data.py` (fixed seeds; do not edit by hand). Every example
+command in `README.md` and `docs/` that does not use `resources/sample/` or `tests/data/`
+uses one of these. Coordinates in mm.
+
+| file | what | used by |
+|---|---|---|
+| `bad_points.csv` | the sample blade, 6 noise-free sections x 300 points; sections 1, 3 and 4 carry runs of 1-5 bad points displaced {bad} mm along the surface normal | `reconstruct --fair` |
+| `nongrid_rows.csv` | 21 closed sections of the sample blade with 97-118 points each (2255 points, noise-free): rows that do not form a grid | `reconstruct --method approximate --poles` |
+| `sinc_zmap.xyz` | `z = sin(r)/r`, r = sqrt(x^2 + y^2), on a 41 x 41 grid over [-8, 8]^2: plain `x y z` lines, no sections (a z-map) | `tspline` |
+| `calibration.json` | a laser machine calibration (beam -x, sensor offset 12.5 mm in z, table axis through (0.5, -0.2)) | `acquire --calibration` |
+| `sample_capture.journal` | the raw bytes of a capture from the simulated controller: the sample blade, 6 sections x 200 points, 2 um noise, measured with `calibration.json`; 1 % bad checksums, 0.5 % garbled records, 1 % extra out-of-range readings | `acquire --replay` |
+"""
+
+
+def _write_examples(blade: SampleBlade, out: Path) -> None:
+    import json
+
+    from bladerecon.acquire.simulator import Faults, sample_plan
+    from bladerecon.core.io.instrument import Calibration
+
+    out.mkdir(parents=True, exist_ok=True)
+    # bad points: noise-free sections, runs displaced along the true normal
+    sections = []
+    for k, h in enumerate(np.linspace(0.0, 1.0, N_SECTIONS)):
+        t = t_at_length_fraction(blade, h, (0.011 + 0.01 * k + np.arange(300)) / 300)
+        pts, nrm = blade.point(h, t), blade.normal(h, t)
+        if k in (1, 3, 4):
+            for frac, n, d in BAD_RUNS:
+                i = int(frac * len(pts))
+                pts[i:i + n] += d * nrm[i:i + n]
+        sections.append(pts)
+    _write_csv(out / "bad_points.csv", sections)
+    # non-grid rows: 21 closed sections, 97-118 points each, 2255 in all
+    rng = np.random.default_rng(3)
+    counts = rng.integers(97, 119, 21)
+    while counts.sum() != 2255:
+        k = int(rng.integers(21))
+        step = int(np.sign(2255 - counts.sum()))
+        if 97 <= counts[k] + step <= 118:
+            counts[k] += step
+    rows = [blade.point(h, t_at_length_fraction(blade, h, (rng.random() + np.arange(n)) / n))
+            for h, n in zip(np.linspace(0.0, 1.0, 21), counts)]
+    _write_csv(out / "nongrid_rows.csv", rows)
+    # z-map
+    x = np.linspace(-8.0, 8.0, 41)
+    X, Y = np.meshgrid(x, x, indexing="ij")
+    R = np.hypot(X, Y)
+    Z = np.where(R > 0, np.sin(R) / np.where(R > 0, R, 1.0), 1.0)
+    with open(out / "sinc_zmap.xyz", "w", encoding="utf-8", newline="\n") as fh:
+        np.savetxt(fh, np.c_[X.ravel(), Y.ravel(), Z.ravel()], fmt="%.6f")
+    # calibration and a capture made with it
+    with open(out / "calibration.json", "w", encoding="utf-8", newline="\n") as fh:
+        fh.write(json.dumps(EXAMPLE_CALIBRATION, indent=2) + "\n")
+    cal = Calibration(**{k: tuple(v) for k, v in EXAMPLE_CALIBRATION.items() if k != "comment"})
+    plan = sample_plan(N_SECTIONS, 200, noise=NOISE, seed=5, calibration=cal,
+                       faults=Faults(bad_checksum=0.01, garbled=0.005, out_of_range=0.01, seed=5))
+    (out / "sample_capture.journal").write_bytes(b"".join(plan.lines))
+    with open(out / "README.md", "w", encoding="utf-8", newline="\n") as fh:
+        fh.write(_EXAMPLES_README.format(bad="0.01-0.2"))
+    print(f"wrote {out}: bad_points.csv, nongrid_rows.csv, sinc_zmap.xyz, calibration.json, "
+          f"sample_capture.journal ({plan.expected['points']} good points)")
+
+
+def normalise_step_header(path: Path) -> None:
+    """Replace the time stamp of the STEP header's FILE_NAME by :data:`STEP_TIMESTAMP`.
+
+    OpenCASCADE writes the local time of the export there; it is the only part of the file
+    that differs between two runs of this tool with the same OpenCASCADE. The stamp keeps
+    its length, so the header's line breaks stay where they were.
+    """
+    data = path.read_bytes()
+    new, count = _STEP_FILE_NAME.subn(
+        lambda m: m.group(1) + STEP_TIMESTAMP.encode("ascii") + m.group(3), data, count=1)
+    if count != 1:
+        raise SystemExit(f"{path}: no FILE_NAME time stamp found in the STEP header")
+    path.write_bytes(new)
+
+
+def _write_nominal(blade: SampleBlade, out: Path) -> None:
     """``nominal.step``: the nominal CAD of the sample blade (one B-spline face, mm)."""
     from bladerecon.samples.blade import nominal_surface
     from bladerecon.fc.freecad_env import import_freecad
@@ -100,8 +226,9 @@ def _write_nominal(blade: SampleBlade) -> None:
     from bladerecon.fc.export import write_step
 
     surface = nominal_surface(blade)
-    write_step(make_face(surface), str(OUT / "nominal.step"))
-    print(f"wrote {OUT / 'nominal.step'}: {surface.shape[0]} x {surface.shape[1]} poles")
+    write_step(make_face(surface), str(out / "nominal.step"))
+    normalise_step_header(out / "nominal.step")
+    print(f"wrote {out / 'nominal.step'}: {surface.shape[0]} x {surface.shape[1]} poles")
 
 
 if __name__ == "__main__":
