@@ -2,7 +2,7 @@
 # BladeRecon: install what is missing, test, demo, benchmark.
 # FreeCAD's Python modules load only in the Python they were built for: Debian's /usr/bin/python3.
 PYTHON ?= /usr/bin/python3
-DEB_PACKAGES := freecad python3-numpy python3-scipy python3-matplotlib python3-serial python3-pytest xvfb
+DEB_PACKAGES := freecad python3-numpy python3-scipy python3-matplotlib python3-serial python3-pytest python3-hypothesis xvfb xauth
 SUDO := $(shell [ "$$(id -u)" -eq 0 ] || echo sudo)
 export PYTHONPATH := $(CURDIR)$(if $(PYTHONPATH),:$(PYTHONPATH))
 export QTWEBENGINE_DISABLE_SANDBOX := 1
@@ -35,7 +35,7 @@ deps:
 
 # pytest's exit 5 (no test collected) is not a failure of the tree.
 test: deps
-	@$(PYTHON) -m pytest -q tests; rc=$$?; [ $$rc -eq 5 ] && rc=0; exit $$rc
+	@$(PYTHON) -m pytest -q -rs tests; rc=$$?; [ $$rc -eq 5 ] && rc=0; exit $$rc
 
 # The whole suite on FreeCAD 1.0 (Debian 13, Python 3.13, numpy 2) in a root made once with
 # debootstrap into .cache/debian13/; "skipped" (exit 0) where the machine cannot make one.
