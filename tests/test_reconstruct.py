@@ -190,3 +190,28 @@ def test_rotor67_held_out_sections(occ):
     rec, d = _held_out(DATA / "nasa_rotor67" / "rotor67_sections_xyz_mm.txt", occ)
     print(f"Rotor 67 held-out sections: max {d.max():.4f} mean {d.mean():.4f} mm")
     assert d.max() < 0.45 and d.mean() < 0.07
+
+
+@pytest.mark.parametrize("tolerance, met", [(0.02, False), (0.2, True)])
+def test_cli_says_when_the_tolerance_is_not_met(tolerance, met):
+    """``reconstruct --method approximate --tolerance``: a fit whose largest distance exceeds the
+    tolerance is reported as such (a warning line on stderr, ``tolerance_met`` false), never as fine."""
+    import json
+    import os
+    import subprocess
+    import sys
+
+    repo = Path(__file__).resolve().parents[1]
+    proc = subprocess.run([sys.executable, "-m", "bladerecon", "reconstruct",
+                           str(repo / "resources" / "sample" / "measured_plan.csv"), "--method", "approximate",
+                           "--tolerance", str(tolerance), "--json", "--quiet"], capture_output=True, text=True,
+                          cwd=str(repo), timeout=120, env={**os.environ, "PYTHONPATH": str(repo)})
+    assert proc.returncode == 0, proc.stderr
+    summary = json.loads(proc.stdout)
+    fit_max = summary["fit"]["max"]
+    assert (fit_max <= tolerance) == met, fit_max
+    assert summary["surface"]["tolerance_met"] is met
+    warnings = [ln for ln in proc.stderr.splitlines() if "not met" in ln]
+    assert len(warnings) == (0 if met else 1), proc.stderr
+    if not met:
+        assert warnings[0].startswith("bladerecon: warning: ") and f"{fit_max * 1000:.1f} µm" in warnings[0]

@@ -1,13 +1,19 @@
 # SPDX-License-Identifier: LGPL-2.1-or-later
-"""The workbench runs for real in the FreeCAD GUI (under Xvfb) as an addon from the user Mod folder.
+"""The workbench as a FreeCAD user gets it: the real GUI (under Xvfb), the checkout installed as a
+user addon, every step through FreeCAD's own paths.
 
-A temporary HOME gets ``.local/share/FreeCAD/Mod/BladeRecon`` -> the repository (a symlink).
-FreeCAD runs a script that activates the workbench, imports the sample blade, reconstructs it
-(through the task panel), compares it with its nominal STEP, switches on the deviation
-colour map and zebra stripes, saves, closes, reopens and recomputes, and writes screenshots
-and a JSON result that the tests below assert on. The statistics are compared with
-``python3 -m bladerecon deviation ... --json`` run separately on the same files, and the
-saved file is opened once more by a FreeCAD that cannot import BladeRecon at all.
+A temporary HOME gets ``.local/share/FreeCAD/Mod/BladeRecon`` -> the repository (a symlink), and
+FreeCAD runs a script that works as a user does: commands through ``FreeCADGui.runCommand``
+(enabled or not by their ``IsActive``), options in the task dialog FreeCAD itself shows (found in
+the task view by objectName, never constructed here), the task view's own OK button clicked,
+file dialogs and message boxes answered while they are up (a QTimer), the report view read
+for ``Traceback`` and ``Failed to load UI file``, and the 3D view saved as images whose pixels
+the tests count (green of a selected colour map, colours under the zebra stripes, the legend).
+
+This module runs the main flow on the sample blade (import, reconstruct, sections, compare,
+maps, zebra, curvature, report, STEP, save and reopen); ``tests/test_gui_failures.py`` runs the
+failure paths (bad files, a failed recompute, a tolerance not met, undo and delete) with the
+same harness (:func:`run_gui`).
 
 Set ``BLADERECON_UPDATE_SCREENSHOTS=1`` to copy the screenshots into docs/screenshots/.
 """
@@ -18,289 +24,539 @@ import os
 import shutil
 import subprocess
 import sys
-import textwrap
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 REPO = Path(__file__).resolve().parents[1]
 SAMPLE = REPO / "resources" / "sample"
-TIMEOUT_S = 240
+TIMEOUT_S = 420
 SCREENSHOTS = ("points_surface.png", "deviation_map.png", "zebra.png", "curvature.png", "deviation_points.png",
-               "reopened.png")
+               "reopened.png", "panel_reconstruct.png", "panel_compare.png", "panel_zebra.png")
 
-pytestmark = pytest.mark.skipif(
-    shutil.which("xvfb-run") is None or shutil.which("freecad") is None,
-    reason="needs xvfb-run and the freecad GUI executable",
-)
+pytestmark = [
+    pytest.mark.skipif(shutil.which("xvfb-run") is None or shutil.which("freecad") is None,
+                       reason="needs xvfb-run and the freecad GUI executable"),
+    pytest.mark.timeout(TIMEOUT_S + 60),
+]
 
-GUI_SCRIPT = r'''
+# --------------------------------------------------------------------------- the harness (runs inside FreeCAD)
+HARNESS = r'''
 import json, os, sys, time, traceback
-out_dir, sample = {out_dir!r}, {sample!r}
-result = {{"steps": [], "seconds": {{}}}}
-t_start = time.time()
+CONFIG = json.loads(__CONFIG__)
+OUT = CONFIG["out_dir"]
+result = {"errors": {}, "seconds": {}, "timings": {}, "modals": []}
+T0 = time.time()
 
-def step(name):
-    result["steps"].append(name)
-    result["seconds"][name] = round(time.time() - t_start, 2)
+import FreeCAD, FreeCADGui
+from PySide import QtCore, QtGui
+try:
+    from PySide import QtWidgets
+except ImportError:
+    QtWidgets = QtGui
+W = QtWidgets if hasattr(QtWidgets, "QDialogButtonBox") else QtGui
+mw = FreeCADGui.getMainWindow()
 
-def shot(name, width=1200, height=800):
-    view = FreeCADGui.ActiveDocument.ActiveView
-    view.setViewDirection((-0.35, 0.75, -0.55))    # from the suction side, a little above: the twist shows
-    view.fitAll()
-    FreeCADGui.updateGui()
-    FreeCADGui.ActiveDocument.ActiveView.saveImage(os.path.join(out_dir, name), width, height, "White")
+
+class part:
+    """One checked part of the flow: an exception is recorded under its name, the flow goes on."""
+    def __init__(self, name):
+        self.name = name
+    def __enter__(self):
+        return self
+    def __exit__(self, kind, value, tb):
+        result["seconds"][self.name] = round(time.time() - T0, 2)
+        if kind is not None:
+            result["errors"][self.name] = traceback.format_exc()
+        return True
+
+
+def pump(seconds=0.0):
+    end = time.time() + seconds
+    while True:
+        W.QApplication.processEvents()
+        if time.time() >= end:
+            return
+        time.sleep(0.02)
+
+
+def report_view():
+    w = mw.findChild(W.QTextEdit, "Report view")
+    return w.toPlainText() if w is not None else ""
+
+
+class Report:
+    """What the report view gained since this was made."""
+    def __init__(self):
+        self.start = len(report_view())
+    def new(self):
+        return report_view()[self.start:]
+
+
+def task_view():
+    views = [w for w in mw.findChildren(W.QWidget) if w.metaObject().className() == "Gui::TaskView::TaskView"]
+    shown = [w for w in views if w.isVisible()]
+    return (shown or views or [None])[0]
+
+
+def task_widget(name):
+    tv = task_view()
+    return tv.findChild(W.QWidget, name) if tv is not None else None
+
+
+def task_button(which):
+    tv = task_view()
+    role = W.QDialogButtonBox.Ok if which == "OK" else W.QDialogButtonBox.Cancel
+    for box in tv.findChildren(W.QDialogButtonBox):
+        b = box.button(role)
+        if b is not None and b.isVisible():
+            return b
+    return None
+
+
+def show_tasks():
+    """Bring the Tasks tab (0.20's combo view) or dock forward, as FreeCAD does for a dialog."""
+    tv = task_view()
+    w = tv
+    while w is not None:
+        p = w.parentWidget()
+        if isinstance(p, W.QStackedWidget):
+            p.setCurrentWidget(w)
+        w = p
+    pump(0.2)
+
+
+class Answers:
+    """Answer the modal dialogs that come up, in order: ``handlers[k](dialog)`` for the k-th; what
+    each said is kept in ``seen`` (None for one that never came)."""
+    def __init__(self, handlers, name=""):
+        self.handlers, self.name = list(handlers), name
+        self.seen = [None] * len(self.handlers)
+        self.done = 0
+        self.last = None
+        self.timer = QtCore.QTimer()
+        self.timer.timeout.connect(self._poll)
+        if self.handlers:
+            self.timer.start(50)
+    def _poll(self):
+        d = W.QApplication.activeModalWidget()
+        if d is None or d is self.last or not d.isVisible():
+            return
+        k = self.done
+        self.last = d
+        self.done += 1
+        if self.done >= len(self.handlers):
+            self.timer.stop()
+        self.seen[k] = {"class": d.metaObject().className(), "title": d.windowTitle(), "at": round(time.time() - T0, 2),
+                        "text": d.text() if hasattr(d, "text") and callable(d.text) else ""}
+        result["modals"].append([f"{self.name} {k}", self.seen[k]])
+        try:
+            self.handlers[k](d)
+        except Exception:
+            result["errors"]["answer %s %d" % (self.name, k)] = traceback.format_exc()
+            d.done(0)
+    def stop(self):
+        self.timer.stop()
+
+
+def choose(path):
+    def handler(d):
+        d.selectFile(path)
+        edits = d.findChildren(W.QLineEdit)
+        if edits:
+            edits[0].setText(os.path.basename(path) if not os.path.isdir(path) else path)
+        d.accept()
+    return handler
+
+
+def press(which):
+    def handler(d):
+        role = {"Yes": W.QMessageBox.Yes, "No": W.QMessageBox.No, "OK": W.QMessageBox.Ok}[which]
+        b = d.button(role) if hasattr(d, "button") else None
+        if b is None:
+            b = [x for x in d.findChildren(W.QPushButton) if x.isVisible()][0]
+        b.click()
+    return handler
+
 
 def active(name):
-    return bool(FreeCADGui.Command.get(name).isActive()) if hasattr(FreeCADGui, "Command") else None
+    return bool(FreeCADGui.Command.get(name).isActive())
+
 
 def select(*objs):
     FreeCADGui.Selection.clearSelection()
     for o in objs:
         FreeCADGui.Selection.addSelection(o)
+    pump()
+
+
+def run(name, answers=(), timing=None):
+    """Run a command as a click on its toolbar button does, answering the dialogs it opens."""
+    pending = Answers(answers, name)
+    t = time.time()
+    FreeCADGui.runCommand(name)
+    pump()
+    pending.stop()
+    if timing:
+        redraw()
+        result["timings"][timing] = round(time.time() - t, 2)
+    return pending.seen
+
+
+def click_ok(timing=None, answers=()):
+    pending = Answers(answers, "OK")
+    t = time.time()
+    task_button("OK").click()
+    pump()
+    pending.stop()
+    if timing:
+        redraw()
+        result["timings"][timing] = round(time.time() - t, 2)
+    return pending.seen
+
+
+def redraw():
+    view = FreeCADGui.ActiveDocument.ActiveView
+    view.redraw() if hasattr(view, "redraw") else None
     FreeCADGui.updateGui()
+    pump(0.05)
 
-def stats(o):
-    return {{"points": o.PointCount, "max": o.Max, "min": o.Min, "mean": o.Mean, "std": o.Std, "rms": o.Rms,
-            "max_abs": o.MaxAbs, "mean_abs": o.MeanAbs, "within_tolerance_pct": o.WithinTolerancePct,
-            "tolerance": o.Tolerance}}
 
-try:
-    import FreeCAD, FreeCADGui, Part
-    from PySide import QtGui
-    step("started")
-    result["freecad_version"] = ".".join(FreeCAD.Version()[:3])
-    result["workbenches"] = sorted(FreeCADGui.listWorkbenches())
+def shot(name, direction=(-0.35, 0.75, -0.55), fit=True):
+    view = FreeCADGui.ActiveDocument.ActiveView
+    view.setViewDirection(direction)
+    if fit:
+        view.fitAll()
+    redraw()
+    view.saveImage(os.path.join(OUT, name), 1200, 800, "White")
+
+
+def grab_window(name):
+    """The main window as the user sees it (task panel, tree, 3D view)."""
+    pump(0.3)
+    screen = W.QApplication.primaryScreen() if hasattr(W.QApplication, "primaryScreen") else QtGui.QGuiApplication.primaryScreen()
+    pix = screen.grabWindow(mw.winId())
+    pix.save(os.path.join(OUT, name))
+
+
+def clipped_texts():
+    """Widgets of the task panel whose text does not fit (cut off at the panel's width)."""
+    tv = task_view()
+    area = tv.rect()
+    out = []
+    for w in tv.findChildren(W.QWidget):
+        if not w.isVisible() or not hasattr(w, "text") or not callable(w.text):
+            continue
+        text = w.text()
+        if not isinstance(text, str) or not text.strip() or isinstance(w, W.QLineEdit):
+            continue     # a line edit (a spin box's) is judged with its spin box below
+        wrap = isinstance(w, W.QLabel) and w.wordWrap()
+        short = (not wrap) and w.width() < w.sizeHint().width()
+        top_left = w.mapTo(tv, QtCore.QPoint(0, 0))
+        outside = top_left.x() < 0 or top_left.x() + w.width() > area.width()
+        if short or outside:
+            out.append([type(w).__name__, w.objectName(), text[:60], w.width(), w.sizeHint().width(), top_left.x(),
+                        area.width()])
+    for w in tv.findChildren(W.QAbstractSpinBox) + tv.findChildren(W.QComboBox):
+        if w.isVisible() and w.width() < w.minimumSizeHint().width():
+            out.append([type(w).__name__, w.objectName(), "", w.width(), w.minimumSizeHint().width()])
+    return out
+
+
+_watch = {"widget": None, "since": 0.0}
+
+
+def _watchdog():
+    """A modal dialog nobody answers (one the flow did not expect) is recorded and closed after
+    5 s, so that the flow never hangs."""
+    d = W.QApplication.activeModalWidget()
+    if d is None or d is not _watch["widget"]:
+        _watch.update(widget=d, since=time.time())
+        return
+    if time.time() - _watch["since"] > 5.0:
+        result["modals"].append(["unexpected", {"class": d.metaObject().className(), "title": d.windowTitle(),
+                                                "text": d.text() if hasattr(d, "text") and callable(d.text) else ""}])
+        result["errors"].setdefault("unexpected dialog", d.windowTitle())
+        d.done(0)
+        _watch.update(widget=None, since=time.time())
+
+
+WATCHDOG = QtCore.QTimer()
+WATCHDOG.timeout.connect(_watchdog)
+WATCHDOG.start(500)
+
+
+FreeCAD.Console.PrintMessage("harness ready\n")
+'''
+
+MAIN_FLOW = r'''
+import numpy as np
+with part("workbench"):
     FreeCADGui.activateWorkbench("BladeReconWorkbench")
-    step("activated")
+    result["freecad_version"] = ".".join(FreeCAD.Version()[:3])
     result["active_workbench"] = type(FreeCADGui.activeWorkbench()).__name__
     result["bladerecon_file"] = sys.modules["bladerecon"].__file__
-    mw = FreeCADGui.getMainWindow()
-    bars = [b for b in mw.findChildren(QtGui.QToolBar) if b.windowTitle() == "BladeRecon"]
+    bars = [b for b in mw.findChildren(W.QToolBar) if b.windowTitle() == "BladeRecon"]
     result["toolbar_visible"] = any(b.isVisible() for b in bars)
     result["toolbar_actions"] = [a.text() for b in bars for a in b.actions()]
     result["menus"] = [a.text().replace("&", "") for a in mw.menuBar().actions()]
     result["commands"] = sorted(c for c in FreeCADGui.listCommands() if c.startswith("BladeRecon"))
-    result["icons"] = {{c: FreeCADGui.Command.get(c).getInfo()["pixmap"] for c in result["commands"]}} \
-        if hasattr(FreeCADGui, "Command") and hasattr(FreeCADGui.Command, "get") else {{}}
-
-    import bladerecon.gui.actions as actions
-    import bladerecon.gui.commands as commands
-    import bladerecon.fc.objects as bro
-    shown = []
-    QtGui.QMessageBox.critical = staticmethod(lambda parent, title, text, *a: shown.append(text))
-    doc = FreeCAD.newDocument("GuiTest")
+    result["icons"] = {c: FreeCADGui.Command.get(c).getInfo()["pixmap"] for c in result["commands"]}
     names = ["BladeRecon_Reconstruct", "BladeRecon_Compare", "BladeRecon_Zebra", "BladeRecon_DeviationMap",
              "BladeRecon_ExportStep", "BladeRecon_WriteReport", "BladeRecon_AnalyseSections"]
-    result["active_empty"] = {{n: active(n) for n in names}}
+    doc = FreeCAD.newDocument("GuiTest")
+    result["active_empty"] = {n: active(n) for n in names}
 
-    # a missing file: one message, no traceback, the document untouched
-    actions.import_points(os.path.join(out_dir, "missing.csv"))
-    result["import_error"] = list(shown)
-    result["objects_after_error"] = len(doc.Objects)
-
-    points = actions.import_points(os.path.join(sample, "measured.csv"))
-    step("imported")
-    result["points"] = {{"type": points.Proxy.Type, "count": points.PointCount, "sections": points.SectionCount,
-                        "units": points.Units, "source": points.SourceFile, "mode": points.ViewObject.DisplayMode}}
+with part("import"):
+    run("BladeRecon_ImportPoints", [choose(CONFIG["measured"])], timing="import points (12000)")
+    points = doc.getObject("MeasuredPoints")
+    result["points"] = {"type": points.Proxy.Type, "count": points.PointCount, "sections": points.SectionCount,
+                        "units": points.Units, "mode": points.ViewObject.DisplayMode}
     result["undo_names"] = list(doc.UndoNames)
-    doc.undo()
+    FreeCADGui.runCommand("Std_Undo"); pump()
     result["objects_after_undo"] = len(doc.Objects)
-    doc.redo()
+    FreeCADGui.runCommand("Std_Redo"); pump()
     result["objects_after_redo"] = len(doc.Objects)
     points = doc.getObject("MeasuredPoints")
-
     select(points)
-    result["active_points_selected"] = {{n: active(n) for n in names}}
-    from bladerecon.gui.task_panels import ReconstructPanel
-    panel = ReconstructPanel(points)
-    FreeCADGui.Control.showDialog(panel)
-    panel.form.method.setCurrentText("auto")
-    panel.accept()
-    surface = panel.result
-    step("reconstructed")
-    sections = actions.analyse_sections(points)
-    step("sections")
-    result["surface"] = {{"type": surface.Proxy.Type, "u_poles": surface.UPoles, "v_poles": surface.VPoles,
+    result["active_points_selected"] = {n: active(n) for n in names}
+
+with part("reconstruct"):
+    rep = Report()
+    run("BladeRecon_Reconstruct")
+    show_tasks()
+    result["reconstruct_panel"] = {"dialog": FreeCADGui.Control.activeDialog(),
+                                   "method": task_widget("method") is not None,
+                                   "source": task_widget("source").text() if task_widget("source") else None,
+                                   "clipped": clipped_texts()}
+    grab_window("panel_reconstruct.png")
+    task_widget("method").setCurrentText("auto")
+    click_ok(timing="reconstruct (task panel OK to surface shown)")
+    result["reconstruct_report"] = rep.new()
+    surface = doc.getObject("BladeSurface")
+    result["surface"] = {"type": surface.Proxy.Type, "u_poles": surface.UPoles, "v_poles": surface.VPoles,
                          "method": surface.MethodUsed, "fit_max": surface.FitMax, "faces": len(surface.Shape.Faces),
-                         "surface_type": type(surface.Shape.Faces[0].Surface).__name__, "status": surface.Status}}
-    result["sections"] = {{"names": list(sections.SectionNames), "chords": list(sections.ChordLengths),
-                          "le": [tuple(v) for v in sections.LeadingEdges], "te": [tuple(v) for v in sections.TrailingEdges]}}
+                         "surface_type": type(surface.Shape.Faces[0].Surface).__name__, "status": surface.Status}
 
-    # a failed recompute keeps the previous surface and marks the object
-    poles_before = surface.UPoles
-    area_before = surface.Shape.Area
-    surface.Method = "approximate"
-    surface.Tolerance = -1.0
-    doc.recompute()
-    result["failed"] = {{"status": surface.Status, "state": list(surface.State), "poles": surface.UPoles,
-                        "same_area": abs(surface.Shape.Area - area_before) < 1e-9 * area_before,
-                        "null": surface.Shape.isNull()}}
-    surface.Method = "auto"
-    surface.Tolerance = 0.0
-    doc.recompute()
-    result["recovered"] = {{"status": surface.Status, "state": list(surface.State), "poles": surface.UPoles}}
-
-    Part.insert(os.path.join(sample, "nominal.step"), doc.Name)
-    nominal = [o for o in doc.Objects if o.TypeId == "Part::Feature"][-1]
-    nominal.ViewObject.Visibility = False
+with part("sections"):
+    select(points)
+    run("BladeRecon_AnalyseSections", timing="analyse sections")
+    sections = doc.getObject("BladeSections")
+    result["sections"] = {"names": list(sections.SectionNames), "chords": list(sections.ChordLengths),
+                          "le": [tuple(v) for v in sections.LeadingEdges], "te": [tuple(v) for v in sections.TrailingEdges]}
+    select()
     shot("points_surface.png")
-    step("shot_a")
-
     select(surface)
-    result["active_surface_selected"] = {{n: active(n) for n in names}}
-    select(nominal)
-    result["active_nominal_selected"] = {{n: active(n) for n in names}}
-    # a nominal somewhere else: the core's one-line message in a box, the failed object marked
-    far = doc.addObject("Part::Feature", "FarBox")
-    far.Shape = Part.makeBox(10, 10, 10, FreeCAD.Vector(5000, 5000, 5000))
-    far.Shape.exportStep(os.path.join(out_dir, "far.step"))     # the same nominal for the CLI
-    n_shown = len(shown)
-    bad = actions.compare_with_nominal(points, far, None, "none", 0.03)
-    result["far_nominal"] = {{"messages": shown[n_shown:], "status": bad.Status if bad else None,
-                             "state": list(bad.State) if bad else None}}
-    doc.removeObject(bad.Name)
-    doc.removeObject(far.Name)
-    nominal.ViewObject.Visibility = False
-    analysis = actions.compare_with_nominal(points, nominal, surface, "none", 0.03)
-    step("compared")
-    result["stats"] = stats(analysis)
-    result["analysis"] = {{"status": analysis.Status, "mode": analysis.ViewObject.DisplayMode,
-                          "visible": analysis.ViewObject.Visibility, "surface_visible": surface.ViewObject.Visibility,
-                          "n_dev": len(analysis.Deviations), "grid": list(analysis.SurfaceGridSize),
-                          "readonly_max": analysis.getEditorMode("Max")}}
-    vp = analysis.ViewObject.Proxy
-    import numpy as np
-    rgb = vp.surface.colours()
-    sdev = np.array(analysis.SurfaceDeviations)
-    redness = rgb[:, 0] - rgb[:, 2]
-    order = np.argsort(np.argsort(sdev))
-    rorder = np.argsort(np.argsort(redness))
-    result["colour"] = {{"n": len(rgb), "distinct": int(len(np.unique(np.round(rgb, 3), axis=0))),
-                        "spearman": float(np.corrcoef(order, rorder)[0, 1]),
-                        "dev_range": [float(sdev.min()), float(sdev.max())]}}
-    points.ViewObject.Visibility = sections.ViewObject.Visibility = False
+    result["active_surface_selected"] = {n: active(n) for n in names}
+
+with part("compare"):
+    select(points)
+    result["compare_active"] = active("BladeRecon_Compare")
+    rep = Report()
+    seen = run("BladeRecon_Compare", [choose(CONFIG["nominal"])])
+    result["compare_dialogs"] = seen
+    show_tasks()
+    result["compare_panel"] = {"dialog": FreeCADGui.Control.activeDialog(),
+                               "inputs": task_widget("inputs").text() if task_widget("inputs") else None,
+                               "robust_at_none": task_widget("robust").isEnabled() if task_widget("robust") else None,
+                               "clipped": clipped_texts()}
+    grab_window("panel_compare.png")
+    task_widget("tolerance").setValue(0.03)
+    click_ok(timing="compare 12000 points + surface (task panel OK to colour map shown)")
+    result["compare_report"] = rep.new()
+    analysis = [o for o in doc.Objects if getattr(getattr(o, "Proxy", None), "Type", "") == "DeviationAnalysis"][0]
+    nominal = analysis.Nominal
+    result["stats"] = {"points": analysis.PointCount, "max": analysis.Max, "min": analysis.Min, "mean": analysis.Mean,
+                       "std": analysis.Std, "rms": analysis.Rms, "max_abs": analysis.MaxAbs, "mean_abs": analysis.MeanAbs,
+                       "within_tolerance_pct": analysis.WithinTolerancePct, "tolerance": analysis.Tolerance}
+    result["nominal_label"] = nominal.Label
+    result["after_compare"] = {"status": analysis.Status, "surface_mode": surface.ViewObject.DisplayMode,
+                               "surface_visible": surface.ViewObject.Visibility,
+                               "nominal_visible": nominal.ViewObject.Visibility,
+                               "points_visible": points.ViewObject.Visibility,
+                               "sections_visible": sections.ViewObject.Visibility,
+                               "selection": [o.Name for o in FreeCADGui.Selection.getSelection()],
+                               "n_dev": len(analysis.Deviations), "grid": list(analysis.SurfaceGridSize)}
+
+with part("selected map"):
+    shot("deviation_map_as_left.png")          # as the command leaves it (whatever is selected)
+    select(surface, analysis)
+    shot("deviation_map_selected.png")
+    select()
     shot("deviation_map.png")
-    step("shot_b")
 
-    select(analysis)                                   # the toolbar command toggles the map off and on
-    result["map_toggle"] = [active("BladeRecon_DeviationMap")]
-    for _ in range(2):
-        FreeCADGui.runCommand("BladeRecon_DeviationMap")
-        FreeCADGui.updateGui()
-        result["map_toggle"].append((analysis.ViewObject.Visibility, surface.ViewObject.Visibility))
-    actions.show_deviation_map(analysis, "Points")
+with part("map on points"):
+    select(analysis)
+    run("BladeRecon_DeviationOnPoints", timing="deviation map onto the points")
+    result["on_points"] = {"analysis_visible": analysis.ViewObject.Visibility,
+                           "analysis_mode": analysis.ViewObject.DisplayMode,
+                           "surface_mode": surface.ViewObject.DisplayMode,
+                           "points_visible": points.ViewObject.Visibility}
+    select()
     shot("deviation_points.png")
-    actions.show_deviation_map(analysis, None)
-    result["map_off"] = {{"analysis_visible": analysis.ViewObject.Visibility, "surface_visible": surface.ViewObject.Visibility}}
-    from bladerecon.gui.task_panels import ComparePanel
-    cpanel = ComparePanel(points, nominal, surface)
-    robust_at_none = cpanel.form.robust.isEnabled()
-    cpanel.form.alignment.setCurrentText("rigid")
-    cpanel.form.robust.setChecked(True)
-    opts = cpanel.options()
-    fitted = actions.compare_with_nominal(points, nominal, None, opts["alignment"], opts["tolerance"],
-                                           robust=opts["robust"])
-    result["robust"] = {{"enabled_at_none": robust_at_none, "option": opts["robust"], "status": fitted.Status,
-                        "property": fitted.RobustFit, "weighted_out": fitted.PointsWeightedOut,
-                        "rotation": fitted.RotationDeg}}
-    doc.removeObject(fitted.Name)
-    nominal.ViewObject.Visibility = False
+    select(analysis)
+    toggles = []
+    for _ in range(2):
+        run("BladeRecon_DeviationMap")
+        toggles.append({"analysis_visible": analysis.ViewObject.Visibility,
+                        "analysis_mode": analysis.ViewObject.DisplayMode,
+                        "surface_mode": surface.ViewObject.DisplayMode,
+                        "points_visible": points.ViewObject.Visibility})
+    result["points_toggle"] = toggles
 
-    points.ViewObject.Visibility = False
-    from bladerecon.gui.task_panels import SurfaceAnalysisPanel
-    panel = SurfaceAnalysisPanel(surface, "Zebra")
-    FreeCADGui.Control.showDialog(panel)
-    panel.form.stripes.setValue(16)
-    panel.accept()
-    zebra_rgb = surface.ViewObject.Proxy.zebra.colours()
-    view = FreeCADGui.ActiveDocument.ActiveView
-    view.setViewDirection((0.6, -0.5, -0.6))         # the stripes follow the eye: colours change
-    FreeCADGui.updateGui()
-    result["zebra_follows_view"] = float(np.abs(surface.ViewObject.Proxy.zebra.colours() - zebra_rgb).max())
-    result["zebra"] = {{"mode": surface.ViewObject.DisplayMode, "stripes": surface.ViewObject.ZebraStripes,
-                       "dark": float(np.mean(zebra_rgb[:, 0] < 0.3)), "light": float(np.mean(zebra_rgb[:, 0] > 0.7))}}
+with part("map on surface again"):
+    select(analysis)
+    run("BladeRecon_DeviationOnPoints", timing="deviation map back onto the surface")   # points -> surface
+    result["surface_toggle"] = {"surface_mode": surface.ViewObject.DisplayMode,
+                                "analysis_visible": analysis.ViewObject.Visibility,
+                                "points_visible": points.ViewObject.Visibility}
+    select()
+    shot("deviation_map_again.png")
+
+with part("zebra"):
+    select(surface)
+    result["zebra_active"] = active("BladeRecon_Zebra")
+    run("BladeRecon_Zebra")
+    show_tasks()
+    result["zebra_panel"] = {"dialog": FreeCADGui.Control.activeDialog(),
+                             "stripes": task_widget("stripes") is not None, "clipped": clipped_texts()}
+    task_widget("stripes").setValue(16)
+    grab_window("panel_zebra.png")
+    click_ok(timing="zebra (task panel OK)")
+    vp = surface.ViewObject.Proxy
+    zebra_rgb = vp.zebra.colours()
+    FreeCADGui.ActiveDocument.ActiveView.setViewDirection((0.6, -0.5, -0.6))
+    redraw()
+    result["zebra_follows_view"] = float(np.abs(vp.zebra.colours() - zebra_rgb).max())
+    result["zebra"] = {"mode": surface.ViewObject.DisplayMode, "stripes": surface.ViewObject.ZebraStripes,
+                       "dark": float(np.mean(zebra_rgb[:, 0] < 0.3)), "light": float(np.mean(zebra_rgb[:, 0] > 0.7)),
+                       "analysis_visible": analysis.ViewObject.Visibility}
+    select()
     shot("zebra.png")
-    step("shot_c")
-    actions.set_surface_analysis(surface, "Curvature", curvature="Mean")
+    select(surface)
+    shot("zebra_selected.png")
+
+with part("curvature"):
+    select(surface)
+    run("BladeRecon_Curvature")
+    show_tasks()
+    task_widget("curvature").setCurrentText("Mean")
+    click_ok(timing="curvature (task panel OK)")
     result["curvature_mode"] = surface.ViewObject.DisplayMode
-    shot("curvature.png")
     mean_rgb = surface.ViewObject.Proxy.curvature.colours()
-    actions.set_surface_analysis(surface, "Curvature", curvature="Gaussian")
+    select()
+    shot("curvature.png")
+    select(surface)
+    shot("curvature_selected.png")
+    # Gaussian through the panel again: Curvature off, then on with Gaussian
+    run("BladeRecon_Curvature")
+    result["curvature_off"] = {"mode": surface.ViewObject.DisplayMode, "points_visible": points.ViewObject.Visibility,
+                               "sections_visible": sections.ViewObject.Visibility}
+    run("BladeRecon_Curvature")
+    show_tasks()
+    task_widget("curvature").setCurrentText("Gaussian")
+    click_ok()
     result["gaussian_vs_mean"] = float(np.abs(surface.ViewObject.Proxy.curvature.colours() - mean_rgb).max())
-    actions.set_surface_analysis(surface, "Zebra")
+    run("BladeRecon_Curvature")   # off again
 
-    # Write report: the command's error path here (the report itself: tests/test_fc_objects.py,
-    # tests/test_deviation.py; its plots take a minute on a busy machine)
-    n_shown = len(shown)
-    result["report_error"] = [actions.write_report(analysis, os.path.join(out_dir, "no", "such", "report"))] \
-        + shown[n_shown:]
-    result["step_written"] = actions.export_step(surface, os.path.join(out_dir, "surface.step"))
-    step("outputs")
+with part("report"):
+    import glob
+    folder = os.path.join(OUT, "bladerecon_report")
+    ticks = []
+    bars = []
+    def tick():
+        ticks.append(time.time())
+        bars.append(any(b.isVisible() for b in mw.statusBar().findChildren(W.QProgressBar)))
+    timer = QtCore.QTimer()
+    timer.timeout.connect(tick)
+    timer.start(100)
+    select(analysis)
+    rep = Report()
+    run("BladeRecon_WriteReport", [choose(OUT)], timing="write report (folder chosen to report written)")
+    timer.stop()
+    gaps = np.diff(ticks) if len(ticks) > 1 else np.array([99.0])
+    result["report"] = {"files": sorted(os.path.basename(p) for p in glob.glob(os.path.join(folder, "*"))),
+                        "longest_gap_s": float(gaps.max()), "ticks": len(ticks), "progress_bar_seen": any(bars),
+                        "report_view": rep.new()}
+    stamp = os.path.getmtime(os.path.join(folder, "summary.json"))
+    # again: the folder exists, FreeCAD asks; No keeps it
+    seen = run("BladeRecon_WriteReport", [choose(OUT), press("No")])
+    result["report_again_no"] = {"asked": seen[1], "unchanged": os.path.getmtime(os.path.join(folder, "summary.json")) == stamp}
+    # Yes, then Esc on FreeCAD's progress bar after a second, and Yes to "abort?": cancelled, the old report kept
+    def escape():
+        target = W.QApplication.focusWidget() or mw
+        for kind in (QtCore.QEvent.KeyPress, QtCore.QEvent.KeyRelease):
+            W.QApplication.postEvent(target, QtGui.QKeyEvent(kind, QtCore.Qt.Key_Escape, QtCore.Qt.NoModifier))
+    QtCore.QTimer.singleShot(1500, escape)
+    rep = Report()
+    t = time.time()
+    seen = run("BladeRecon_WriteReport", [choose(OUT), press("Yes"), press("Yes")])
+    result["report_cancel"] = {"dialogs": seen, "seconds": round(time.time() - t, 2), "report_view": rep.new(),
+                               "unchanged": os.path.getmtime(os.path.join(folder, "summary.json")) == stamp,
+                               "files": sorted(os.path.basename(p) for p in glob.glob(os.path.join(OUT, "*report*")))}
+    result["timings"]["write report, cancelled (Esc at 1.5 s, to control back)"] = result["report_cancel"]["seconds"]
 
-    # replayable: the console shows the lines the commands ran; run them again in a fresh document
-    console = [w for w in mw.findChildren(QtGui.QPlainTextEdit) if w.objectName() == "Python console"]
+with part("export"):
+    select(surface)
+    run("BladeRecon_ExportStep", [choose(os.path.join(OUT, "surface.step"))], timing="export STEP")
+    result["step_written"] = os.path.exists(os.path.join(OUT, "surface.step")) and \
+        os.path.getsize(os.path.join(OUT, "surface.step"))
+
+with part("replay"):
+    console = [w for w in mw.findChildren(W.QPlainTextEdit) if w.objectName() == "Python console"]
     text = console[0].toPlainText() if console else ""
     lines = [ln.lstrip(">. ").strip() for ln in text.splitlines()]
     lines = [ln for ln in lines if ln.startswith(("import bladerecon", "_br_points =", "_br_surface ="))]
     result["console_lines"] = lines
     replay = FreeCAD.newDocument("Replay")
-    scope = {{"App": FreeCAD, "FreeCAD": FreeCAD}}
+    scope = {"App": FreeCAD, "FreeCAD": FreeCAD}
     for ln in lines:
         exec(ln.replace("App.getDocument('GuiTest')", "App.getDocument('Replay')"), scope)
     replay.recompute()
-    again = [o for o in replay.Objects if bro.is_type(o, "BladeSurface")]
-    result["replayed"] = {{"surfaces": len(again), "u_poles": again[0].UPoles if again else None,
-                          "area_diff": abs(again[0].Shape.Area - surface.Shape.Area) if again else None}}
+    again = [o for o in replay.Objects if getattr(getattr(o, "Proxy", None), "Type", "") == "BladeSurface"]
+    result["replayed"] = {"surfaces": len(again), "u_poles": again[0].UPoles if again else None,
+                          "area_diff": abs(again[0].Shape.Area - surface.Shape.Area) if again else None}
     FreeCAD.closeDocument("Replay")
     FreeCAD.setActiveDocument(doc.Name)
+    FreeCADGui.activeDocument() if hasattr(FreeCADGui, "activeDocument") else None
 
-    actions.show_deviation_map(analysis, "Points")     # map on the points, zebra on the surface
-    path = os.path.join(out_dir, "blade.FCStd")
+with part("save and reopen"):
+    select(analysis)
+    run("BladeRecon_DeviationOnPoints")      # map on the points
+    select(surface)
+    run("BladeRecon_Zebra")
+    show_tasks()
+    click_ok()
+    path = os.path.join(OUT, "blade.FCStd")
     doc.saveAs(path)
     FreeCAD.closeDocument(doc.Name)
-    step("saved")
+    t = time.time()
     doc = FreeCAD.openDocument(path)
-    step("reopened")
-    result["reopened"] = {{"objects": sorted(o.Name for o in doc.Objects),
-                          "types": sorted(getattr(o.Proxy, "Type", "") for o in doc.Objects if hasattr(o, "Proxy")),
-                          "surface_mode": doc.BladeSurface.ViewObject.DisplayMode,
-                          "analysis_mode": doc.DeviationAnalysis.ViewObject.DisplayMode,
-                          "stats_before_recompute": stats(doc.DeviationAnalysis),
-                          "n_dev": len(doc.DeviationAnalysis.Deviations),
-                          "surface_faces": len(doc.BladeSurface.Shape.Faces)}}
+    pump()
+    result["timings"]["open the saved blade"] = round(time.time() - t, 2)
+    kinds = sorted(getattr(o.Proxy, "Type", "") for o in doc.Objects if hasattr(o, "Proxy"))
+    an = [o for o in doc.Objects if getattr(getattr(o, "Proxy", None), "Type", "") == "DeviationAnalysis"][0]
+    su = doc.getObject("BladeSurface")
+    result["reopened"] = {"types": kinds, "surface_mode": su.ViewObject.DisplayMode,
+                          "analysis_mode": an.ViewObject.DisplayMode, "analysis_visible": an.ViewObject.Visibility,
+                          "n_dev": len(an.Deviations), "surface_faces": len(su.Shape.Faces)}
     for o in doc.Objects:
         o.touch()
+    t = time.time()
     doc.recompute()
-    step("recomputed")
-    result["reopened"]["stats_after_recompute"] = stats(doc.DeviationAnalysis)
-    result["reopened"]["status"] = {{o.Name: o.Status for o in doc.Objects if hasattr(o, "Status")}}
-    result["reopened"]["zebra_vertices"] = len(doc.BladeSurface.ViewObject.Proxy.zebra.colours())
+    pump()
+    result["timings"]["recompute everything (reopened)"] = round(time.time() - t, 2)
+    result["reopened"]["status"] = {o.Name: o.Status for o in doc.Objects if hasattr(o, "Status")}
+    result["reopened"]["zebra_vertices"] = len(su.ViewObject.Proxy.zebra.colours())
+    select()
     shot("reopened.png")
-    result["messages"] = list(shown)
-    step("done")
-except Exception:
-    result["error"] = traceback.format_exc()
-with open(os.path.join(out_dir, "result.json"), "w") as f:
-    json.dump(result, f, indent=1)
-os._exit(0)
-'''
 
-# Opens the saved file in a FreeCAD whose Python cannot import bladerecon (no Mod folder, no PYTHONPATH).
-BARE_SCRIPT = r'''
-import json, sys
-sys.path.append({lib!r})
-import FreeCAD
-doc = FreeCAD.openDocument({path!r})
-try:
-    import bladerecon
-    importable = True
-except ImportError:
-    importable = False
-out = {{"importable": importable, "objects": sorted(o.Name for o in doc.Objects),
-       "surface_faces": len(doc.BladeSurface.Shape.Faces), "points": len(doc.MeasuredPoints.Points),
-       "max": doc.DeviationAnalysis.Max, "n_dev": len(doc.DeviationAnalysis.Deviations)}}
-print("RESULT=" + json.dumps(out))
+result["report_view"] = report_view()
+result["seconds"]["done"] = round(time.time() - T0, 2)
+with open(os.path.join(OUT, "result.json"), "w") as f:
+    json.dump(result, f, indent=1, default=str)
+os._exit(0)
 '''
 
 
@@ -325,29 +581,80 @@ def _clean_env(home: Path, tmp: Path) -> dict:
     return env
 
 
-@pytest.fixture(scope="module")
-def gui_run(tmp_path_factory):
-    tmp = tmp_path_factory.mktemp("gui")
+def run_gui(tmp: Path, flow: str, config: dict) -> tuple[dict, Path]:
+    """Run ``flow`` (Python, after :data:`HARNESS`) in the FreeCAD GUI under Xvfb with the checkout
+    as a user addon; return the result JSON it wrote and its output folder."""
     env = _clean_env(tmp / "home", tmp)
     mod = _user_mod_dir(env)
     mod.mkdir(parents=True, exist_ok=True)
     (mod / "BladeRecon").symlink_to(REPO, target_is_directory=True)
     out = tmp / "out"
     out.mkdir()
-    script = tmp / "gui_check.py"
-    script.write_text(textwrap.dedent(GUI_SCRIPT.format(out_dir=str(out), sample=str(SAMPLE))))
+    script = tmp / "gui_flow.py"
+    script.write_text(HARNESS.replace("__CONFIG__", repr(json.dumps({"out_dir": str(out), **config}))) + flow)
     cmd = ["xvfb-run", "-a", "-s", "-screen 0 1600x1000x24", "freecad", str(script)]
     proc = subprocess.run(cmd, env=env, cwd=str(tmp), capture_output=True, text=True, timeout=TIMEOUT_S)
     result_file = out / "result.json"
     assert result_file.exists(), f"FreeCAD wrote no result (exit {proc.returncode}):\n{proc.stdout[-3000:]}\n{proc.stderr[-3000:]}"
-    result = json.loads(result_file.read_text())
-    assert "error" not in result, result["error"]
+    return json.loads(result_file.read_text()), out
+
+
+def copy_screenshots(out: Path, names) -> None:
     if os.environ.get("BLADERECON_UPDATE_SCREENSHOTS"):
         dest = REPO / "docs" / "screenshots"
         dest.mkdir(parents=True, exist_ok=True)
-        for name in SCREENSHOTS:
-            shutil.copy(out / name, dest / name)
+        for name in names:
+            if (out / name).exists():
+                shutil.copy(out / name, dest / name)
+
+
+def image(path: Path) -> np.ndarray:
+    """RGB floats in [0, 1] of a PNG."""
+    import matplotlib.image
+
+    return np.asarray(matplotlib.image.imread(str(path)), float)[..., :3]
+
+
+def blade_pixels(rgb: np.ndarray) -> np.ndarray:
+    """The pixels of the model (not the white background, not the legend at the right)."""
+    h, w = rgb.shape[:2]
+    model = rgb[:, : int(0.74 * w)].reshape(-1, 3)
+    return model[model.min(axis=1) < 0.94]
+
+
+def green_share(rgb: np.ndarray) -> float:
+    px = blade_pixels(rgb)
+    g = px[:, 1]
+    return float(np.mean((g > px[:, 0] + 0.1) & (g > px[:, 2] + 0.1))) if len(px) else 0.0
+
+
+def coloured_share(rgb: np.ndarray) -> float:
+    """Share of model pixels with a hue (not grey): the map showing through the zebra stripes."""
+    px = blade_pixels(rgb)
+    return float(np.mean(px.max(axis=1) - px.min(axis=1) > 0.12)) if len(px) else 0.0
+
+
+def legend_pixels(rgb: np.ndarray) -> int:
+    """Coloured pixels where the colour bar of a legend sits (right of the model)."""
+    h, w = rgb.shape[:2]
+    bar = rgb[int(0.15 * h): int(0.85 * h), int(0.76 * w): int(0.83 * w)].reshape(-1, 3)
+    return int(np.sum(bar.max(axis=1) - bar.min(axis=1) > 0.15))
+
+
+# --------------------------------------------------------------------------- the main flow
+@pytest.fixture(scope="module")
+def gui_run(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("gui")
+    result, out = run_gui(tmp, MAIN_FLOW, {"measured": str(SAMPLE / "measured.csv"),
+                                           "nominal": str(SAMPLE / "nominal.step")})
+    copy_screenshots(out, SCREENSHOTS)
+    (out / "timings.json").write_text(json.dumps(result.get("timings", {}), indent=1))
     return result, out, tmp
+
+
+def _ok(result, *parts):
+    for p in parts:
+        assert p not in result["errors"], result["errors"][p]
 
 
 @pytest.fixture(scope="module")
@@ -362,6 +669,7 @@ def cli_stats():
 
 def test_workbench_loads_with_all_commands(gui_run):
     result, _, _ = gui_run
+    _ok(result, "workbench")
     assert result["active_workbench"] == "BladeReconWorkbench"
     assert Path(result["bladerecon_file"]).resolve().is_relative_to(REPO)
     expected = {"BladeRecon_ImportPoints", "BladeRecon_AnalyseSections", "BladeRecon_Reconstruct", "BladeRecon_Compare",
@@ -378,19 +686,17 @@ def test_workbench_loads_with_all_commands(gui_run):
 
 def test_commands_follow_the_selection(gui_run):
     result, _, _ = gui_run
+    _ok(result, "import", "sections")
     assert not any(result["active_empty"].values()), result["active_empty"]
     sel = result["active_points_selected"]
-    assert sel["BladeRecon_Reconstruct"] and sel["BladeRecon_AnalyseSections"]
-    assert not sel["BladeRecon_Zebra"] and not sel["BladeRecon_Compare"] and not sel["BladeRecon_ExportStep"]
+    assert sel["BladeRecon_Reconstruct"] and sel["BladeRecon_AnalyseSections"] and sel["BladeRecon_Compare"]
+    assert not sel["BladeRecon_Zebra"] and not sel["BladeRecon_ExportStep"] and not sel["BladeRecon_DeviationMap"]
     assert result["active_surface_selected"]["BladeRecon_Zebra"] and result["active_surface_selected"]["BladeRecon_ExportStep"]
-    assert result["active_nominal_selected"]["BladeRecon_Compare"]
 
 
-def test_import_is_one_undoable_step_and_errors_are_one_line(gui_run):
+def test_import_through_the_file_dialog_is_one_undoable_step(gui_run):
     result, _, _ = gui_run
-    assert len(result["import_error"]) == 1
-    assert "missing.csv" in result["import_error"][0] and "Traceback" not in result["import_error"][0]
-    assert result["objects_after_error"] == 0
+    _ok(result, "import")
     p = result["points"]
     assert p["type"] == "MeasuredPoints" and p["count"] == 12000 and p["sections"] == 6 and p["units"] == "mm"
     assert p["mode"] == "Sections"
@@ -398,8 +704,24 @@ def test_import_is_one_undoable_step_and_errors_are_one_line(gui_run):
     assert result["objects_after_undo"] == 0 and result["objects_after_redo"] == 1
 
 
+def test_task_panels_are_the_forms_freecad_shows(gui_run):
+    """Issue item 1: FreeCAD's own task dialog shows the form (not an empty panel) and nothing in it
+    is cut off at the default panel width."""
+    result, _, _ = gui_run
+    _ok(result, "reconstruct", "compare", "zebra")
+    assert "Failed to load UI file" not in result["report_view"]
+    rp = result["reconstruct_panel"]
+    assert rp["dialog"] and rp["method"] and rp["source"].startswith("Points: Measured points (measured.csv)")
+    cp = result["compare_panel"]
+    assert cp["dialog"] and "Nominal: nominal" in cp["inputs"] and cp["robust_at_none"] is False
+    assert result["zebra_panel"]["dialog"] and result["zebra_panel"]["stripes"]
+    for panel in (rp, cp, result["zebra_panel"]):
+        assert panel["clipped"] == [], panel["clipped"]
+
+
 def test_surface_and_sections(gui_run):
     result, _, _ = gui_run
+    _ok(result, "reconstruct", "sections")
     s = result["surface"]
     assert s["type"] == "BladeSurface" and s["faces"] == 1 and s["surface_type"] == "BSplineSurface"
     assert s["status"] == "ok" and s["u_poles"] > 50 and s["v_poles"] == 6
@@ -413,65 +735,96 @@ def test_surface_and_sections(gui_run):
         assert abs(le[2] - te[2]) < 0.01
 
 
+def test_compare_imports_the_nominal_and_shows_only_the_map(gui_run):
+    """Items 3 and 7: one surface display (the map is a mode of the surface), the nominal named after
+    its file, the points and section curves hidden under the map."""
+    result, out, _ = gui_run
+    _ok(result, "compare")
+    assert result["compare_active"]
+    assert result["compare_dialogs"][0]["class"] == "QFileDialog"
+    assert result["nominal_label"] == "nominal"
+    a = result["after_compare"]
+    assert a["status"] == "ok" and a["surface_mode"] == "Deviation" and a["surface_visible"]
+    assert not a["nominal_visible"] and not a["points_visible"] and not a["sections_visible"]
+    rgb = image(out / "deviation_map.png")
+    assert legend_pixels(rgb) > 500                    # the deviation legend is up
+    assert "Traceback" not in result["compare_report"]
+
+
 def test_stats_match_the_cli(gui_run, cli_stats):
     result, _, _ = gui_run
-    for stats in (result["stats"], result["reopened"]["stats_before_recompute"], result["reopened"]["stats_after_recompute"]):
-        for key, value in stats.items():
-            assert value == pytest.approx(cli_stats[key], rel=1e-9, abs=1e-12), key
-    assert result["analysis"]["n_dev"] == cli_stats["points"]
-    assert 1 in result["analysis"]["readonly_max"] or "ReadOnly" in result["analysis"]["readonly_max"]
+    _ok(result, "compare")
+    for key, value in result["stats"].items():
+        assert value == pytest.approx(cli_stats[key], rel=1e-9, abs=1e-12), key
+    assert result["after_compare"]["n_dev"] == cli_stats["points"]
 
 
-def test_deviation_colours_follow_the_deviation(gui_run):
+def test_selected_colour_maps_keep_their_colours(gui_run):
+    """Item 2: a selected map is not painted green (selection shows as an outline at most)."""
+    result, out, _ = gui_run
+    _ok(result, "selected map", "zebra", "curvature")
+    for name in ("deviation_map_as_left.png", "deviation_map_selected.png", "deviation_map.png", "zebra_selected.png",
+                 "curvature_selected.png", "curvature.png"):
+        share = green_share(image(out / name))
+        assert share < 0.05, (name, share)          # the thin box outline of a selection at most
+
+
+def test_the_map_toggles_where_it_was(gui_run):
+    """Item 7: the map toggle comes back on the points after it was on the points."""
     result, _, _ = gui_run
-    a = result["analysis"]
-    assert a["mode"] == "Surface" and a["visible"] and not a["surface_visible"]
-    c = result["colour"]
-    nu, nv = a["grid"]
-    assert c["n"] == nu * nv and c["distinct"] > 100
-    # blue-to-red order of the vertex colours is the order of the deviations
-    assert c["spearman"] > 0.99
-    assert c["dev_range"][0] < 0 < c["dev_range"][1]
-    assert result["map_off"] == {"analysis_visible": False, "surface_visible": True}
-    # the Compare dialog's robust box: off without an alignment; with rigid it reaches the object,
-    # which fits the (unmoved, 2 µm noise) sample points with the robust fit and drops none
-    rb = result["robust"]
-    assert rb["enabled_at_none"] is False and rb["option"] is True and rb["property"] is True
-    assert rb["status"] == "ok" and rb["weighted_out"] < 0.01 * result["stats"]["points"] and rb["rotation"] < 0.01
-    # the toolbar command: enabled with the analysis selected; off (surface shown), then on again
-    assert result["map_toggle"] == [True, [False, True], [True, False]]
+    _ok(result, "map on points", "map on surface again")
+    p = result["on_points"]
+    assert p["analysis_visible"] and p["analysis_mode"] == "Points" and p["surface_mode"] != "Deviation"
+    assert not p["points_visible"]
+    off, on = result["points_toggle"]
+    assert not off["analysis_visible"] and off["points_visible"] and off["surface_mode"] != "Deviation"
+    assert on["analysis_visible"] and on["analysis_mode"] == "Points" and on["surface_mode"] != "Deviation"
+    back = result["surface_toggle"]                    # the points command again: back on the surface
+    assert back["surface_mode"] == "Deviation" and not back["analysis_visible"] and not back["points_visible"]
 
 
-def test_zebra_and_curvature(gui_run):
-    result, _, _ = gui_run
+def test_zebra_replaces_the_map(gui_run):
+    """Item 3: zebra over the deviation map: the map and its legend go, no colour shows through."""
+    result, out, _ = gui_run
+    _ok(result, "zebra")
     z = result["zebra"]
     assert z["mode"] == "Zebra" and z["stripes"] == 16
     assert z["dark"] > 0.2 and z["light"] > 0.2       # black and white bands, both present
     assert result["zebra_follows_view"] > 0.5          # recoloured when the camera turned
+    rgb = image(out / "zebra.png")
+    assert coloured_share(rgb) < 0.02, coloured_share(rgb)
+    assert legend_pixels(rgb) < 50, legend_pixels(rgb)
+
+
+def test_curvature(gui_run):
+    result, out, _ = gui_run
+    _ok(result, "curvature")
     assert result["curvature_mode"] == "Curvature"
     assert result["gaussian_vs_mean"] > 0.3            # a different quantity, different colours
+    assert legend_pixels(image(out / "curvature.png")) > 500
+    off = result["curvature_off"]                      # leaving the analysis modes brings back what they hid
+    assert off["mode"] not in ("Curvature", "Zebra", "Deviation") and off["points_visible"] and off["sections_visible"]
 
 
-def test_failed_recompute_keeps_the_previous_surface(gui_run):
+def test_report_runs_off_the_gui_thread_asks_before_replacing_and_cancels(gui_run):
+    """Item 6: the GUI keeps ticking with FreeCAD's progress bar up; an existing folder is not
+    replaced without asking; Esc on the progress bar cancels and keeps the old report."""
     result, _, _ = gui_run
-    f = result["failed"]
-    assert f["status"].startswith("failed: ") and "Tolerance" in f["status"]
-    assert "Invalid" in f["state"] and f["same_area"] and not f["null"] and f["poles"] > 50
-    assert result["recovered"]["status"] == "ok" and "Invalid" not in result["recovered"]["state"]
-    far = result["far_nominal"]       # through a command: the CLI's one-line message in a box
-    assert len(far["messages"]) == 1 and "far from the nominal" in far["messages"][0]
-    _, out, _ = gui_run
-    proc = subprocess.run([sys.executable, "-m", "bladerecon", "deviation", str(SAMPLE / "measured.csv"), "--nominal",
-                           str(out / "far.step"), "--quiet"], cwd=str(REPO), capture_output=True, text=True,
-                          timeout=TIMEOUT_S, env={**os.environ, "PYTHONPATH": str(REPO)})
-    assert proc.returncode == 2
-    assert proc.stderr.strip() == "bladerecon: error: " + far["messages"][0]
-    assert "Traceback" not in far["messages"][0] and "\n" not in far["messages"][0]
-    assert far["status"].startswith("failed: ") and "Invalid" in far["state"]
+    _ok(result, "report")
+    r = result["report"]
+    assert {"report.html", "summary.json", "deviations.csv"} <= set(r["files"]), r["files"]
+    assert r["progress_bar_seen"] and r["longest_gap_s"] < 1.0, r
+    assert "Traceback" not in r["report_view"]
+    assert result["report_again_no"]["asked"]["class"] == "QMessageBox" and result["report_again_no"]["unchanged"]
+    c = result["report_cancel"]
+    assert c["unchanged"] and "cancelled" in c["report_view"], c
+    assert c["files"] == ["bladerecon_report"], c["files"]
 
 
-def test_commands_replay_from_the_console(gui_run):
-    result, _, _ = gui_run
+def test_outputs_and_replay(gui_run):
+    result, out, _ = gui_run
+    _ok(result, "export", "replay")
+    assert result["step_written"] and result["step_written"] > 10000
     lines = result["console_lines"]
     assert any(ln.startswith("_br_points = bro.make_measured_points(") for ln in lines), lines
     assert any(ln.startswith("_br_surface = bro.make_blade_surface(") for ln in lines), lines
@@ -479,39 +832,22 @@ def test_commands_replay_from_the_console(gui_run):
     assert r["surfaces"] >= 1 and r["u_poles"] == result["surface"]["u_poles"] and r["area_diff"] < 1e-9
 
 
-def test_outputs(gui_run):
-    result, out, _ = gui_run
-    assert result["step_written"] and (out / "surface.step").stat().st_size > 10000
-    none, message = result["report_error"]
-    assert none is None and "does not exist" in message and "Traceback" not in message
-
-
 def test_save_close_reopen_recompute(gui_run):
     result, _, _ = gui_run
+    _ok(result, "save and reopen")
     r = result["reopened"]
     assert r["types"] == ["BladeSections", "BladeSurface", "DeviationAnalysis", "MeasuredPoints"]
     assert r["surface_faces"] == 1 and r["n_dev"] == 12000
-    assert r["surface_mode"] == "Zebra" and r["analysis_mode"] == "Points"
+    assert r["surface_mode"] == "Zebra" and r["analysis_mode"] == "Points" and r["analysis_visible"]
     assert all(s == "ok" for s in r["status"].values()), r["status"]
     assert r["zebra_vertices"] > 1000
-    # ~75 s on an idle 2-core machine; the bound only catches a run-away regression
-    assert result["seconds"]["done"] < 180, result["seconds"]
 
 
-def test_reopens_without_the_workbench(gui_run):
-    _, out, tmp = gui_run
-    from bladerecon.fc.freecad_env import find_freecad_lib
-
-    env = _clean_env(tmp / "bare_home", tmp)
-    script = BARE_SCRIPT.format(lib=find_freecad_lib(), path=str(out / "blade.FCStd"))
-    proc = subprocess.run([sys.executable, "-c", script], env=env, cwd=str(tmp), capture_output=True, text=True,
-                          timeout=TIMEOUT_S)
-    line = [ln for ln in proc.stdout.splitlines() if ln.startswith("RESULT=")]
-    assert line, proc.stdout[-2000:] + proc.stderr[-2000:]
-    r = json.loads(line[0][len("RESULT="):])
-    assert not r["importable"]
-    assert {"MeasuredPoints", "BladeSurface", "BladeSections", "DeviationAnalysis"} <= set(r["objects"])
-    assert r["surface_faces"] == 1 and r["points"] == 12000 and r["n_dev"] == 12000 and r["max"] > 0
+def test_no_traceback_and_no_error_anywhere(gui_run):
+    result, _, _ = gui_run
+    assert result["errors"] == {}, list(result["errors"])
+    assert "Traceback" not in result["report_view"]
+    assert "Failed to load UI file" not in result["report_view"]
 
 
 def test_screenshots_written(gui_run):

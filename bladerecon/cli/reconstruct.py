@@ -126,6 +126,12 @@ def run_reconstruct(args: argparse.Namespace) -> dict:
     surf = rec.surface
     say(f"surface {surf.shape[0]} x {surf.shape[1]} poles ({rec.choice.method}); "
         f"fit max {proj.distance.max() * 1000:.2f} µm")
+    # --tolerance asked for a largest distance: say when the fit does not reach it (even with --quiet)
+    tolerance_met = None if args.tolerance is None else bool(proj.distance.max() <= args.tolerance)
+    if tolerance_met is False:
+        print(f"bladerecon: warning: tolerance not met: the largest distance of a measured point is "
+              f"{proj.distance.max() * 1000:.1f} µm, over the {args.tolerance * 1000:.1f} µm asked "
+              f"({surf.shape[0]} x {surf.shape[1]} poles)", file=sys.stderr, flush=True)
 
     summary: dict = {
         "input": {"file": args.input, "format": pointset.format, "points": int(len(pointset.points)),
@@ -134,7 +140,8 @@ def run_reconstruct(args: argparse.Namespace) -> dict:
                     "v_degree": surf.v_degree, "u_periodic": bool(surf.u_periodic),
                     "method": rec.choice.method, "method_reason": rec.choice.reason,
                     "pairing": args.pairing, "noise_estimate_mm": rec.choice.noise_mm,
-                    "tolerance_mm": rec.tolerance, "refit_error_mm": rec.refit_error},
+                    "tolerance_mm": rec.tolerance, "tolerance_met": tolerance_met,
+                    "refit_error_mm": rec.refit_error},
         "fit": _stats(proj.distance),
     }
     if seg_info is not None:

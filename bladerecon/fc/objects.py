@@ -35,7 +35,7 @@ from bladerecon.fc.freecad_env import import_freecad
 __all__ = ["MeasuredPoints", "BladeSections", "BladeSurface", "DeviationAnalysis",
            "make_measured_points", "make_blade_sections", "make_blade_surface", "make_deviation_analysis",
            "point_set", "core_surface", "surface_grid", "section_parameters", "SectionParameters",
-           "export_step", "register_view_provider", "VIEW_PROVIDERS",
+           "export_step", "register_view_provider", "VIEW_PROVIDERS", "register_failure_hook", "FAILURE_HOOKS",
            "is_type", "ALIGN_MODES", "METHODS"]
 
 FreeCAD, Part = import_freecad()
@@ -98,27 +98,50 @@ class _Feature:
 
     def execute(self, obj: Any) -> None:
         try:
-            self.compute(obj)
-            obj.Status = "ok"
-            return
+            warning = self.compute(obj)
         except BladeReconError as err:
             message = str(err)
         except Exception as err:
-            if "Abort" in type(err).__name__:     # Esc on FreeCAD's progress bar
+            if "abort" in f"{type(err).__name__} {err}".lower():     # Esc on FreeCAD's progress bar
                 message = "cancelled; the previous result is kept: recompute to run it again"
             else:  # a bug: one line for the user, the traceback in the log only
                 FreeCAD.Console.PrintLog(traceback.format_exc())
                 message = f"internal error: {type(err).__name__}: {err}"
+        else:
+            # a result that does not do what was asked (a tolerance not met) is said, never "ok"
+            obj.Status = warning or "ok"
+            if warning:
+                FreeCAD.Console.PrintWarning(f"BladeRecon: {_prefixed(obj, warning)}\n")
+            return
         # Keep the previous result, say why in one line, and raise: raising is the only way a
-        # Python feature gets marked as failed (FreeCAD then also logs a two-line trace of
-        # this very line, after our message).
+        # Python feature gets marked as failed. FreeCAD then reports the exception again (with
+        # a traceback, and "Recompute failed!"): the hooks the GUI registers keep those out of
+        # the report view and status bar, so the user reads this one line.
         obj.Status = f"failed: {message}"
-        where = "" if message.startswith(obj.Label) else f"{obj.Label}: "
-        FreeCAD.Console.PrintError(f"BladeRecon: {where}{message}\n")
+        FreeCAD.Console.PrintError(f"BladeRecon: {_prefixed(obj, message)}\n")
+        for hook in FAILURE_HOOKS:
+            hook(obj, message)
         raise BladeReconError(message) from None
 
-    def compute(self, obj: Any) -> None:
+    def compute(self, obj: Any) -> str | None:
+        """Recompute ``obj``; return None, or a one-line warning that becomes its ``Status``."""
         raise NotImplementedError
+
+
+def _prefixed(obj: Any, message: str) -> str:
+    return message if message.startswith(obj.Label) else f"{obj.Label}: {message}"
+
+
+#: Called as ``hook(obj, message)`` when a recompute fails, just before the exception that marks
+#: ``obj`` as failed is raised. The GUI registers one (:mod:`bladerecon.gui.view_providers`) that
+#: keeps FreeCAD's own report of that exception (a traceback) out of the report view: this
+#: module never imports the GUI.
+FAILURE_HOOKS: list = []
+
+
+def register_failure_hook(hook: Any) -> None:
+    if hook not in FAILURE_HOOKS:
+        FAILURE_HOOKS.append(hook)
 
 
 class _Progress:
@@ -350,7 +373,7 @@ class BladeSurface(_Feature):
             obj.Method = METHODS
             obj.Method = "auto"
 
-    def compute(self, obj: Any) -> None:
+    def compute(self, obj: Any) -> str | None:
         from bladerecon.core.geometry.projection import project_points_to_surface
         from bladerecon.core.reconstruct import reconstruct
         from bladerecon.core.sections.ordering import build_sections
@@ -377,6 +400,10 @@ class BladeSurface(_Feature):
         obj.NoiseEstimate, obj.RefitError = float(rec.choice.noise_mm), float(rec.refit_error)
         obj.FitMax = float(proj.distance.max())
         obj.FitRms = float(np.sqrt(np.mean(proj.distance ** 2)))
+        if tolerance is not None and obj.FitMax > tolerance:
+            return (f"tolerance not met: the largest distance of a measured point is {obj.FitMax * 1000:.1f} µm, "
+                    f"over the {tolerance * 1000:.1f} µm asked ({obj.UPoles} x {obj.VPoles} poles)")
+        return None
 
 
 def make_blade_surface(doc: Any, points_obj: Any, method: str = "auto", tolerance: float = 0.0,

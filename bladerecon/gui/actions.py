@@ -20,9 +20,9 @@ import FreeCADGui
 from bladerecon.core.errors import BladeReconError
 from bladerecon.fc import objects
 
-__all__ = ["import_points", "analyse_sections", "reconstruct_surface", "compare_with_nominal",
-           "show_deviation_map", "set_surface_analysis", "export_step", "write_report", "show_error",
-           "selected", "find_object"]
+__all__ = ["import_points", "import_nominal", "analyse_sections", "reconstruct_surface", "compare_with_nominal",
+           "show_deviation_map", "map_state", "set_surface_analysis", "export_step", "write_report", "show_error",
+           "off_the_gui_thread", "Cancelled", "selected", "find_object"]
 
 _PARAMS = "User parameter:BaseApp/Preferences/Mod/BladeRecon"
 POINT_FILTER = "Measured points (*.csv *.txt *.xyz *.dat *.asc *.pts);;All files (*)"
@@ -40,9 +40,11 @@ def _qt_widgets() -> Any:
     return QtWidgets
 
 
-def show_error(message: str, title: str = "BladeRecon") -> None:
-    """Show ``message`` in the report view and, with the GUI up, in a message box."""
-    FreeCAD.Console.PrintError(f"BladeRecon: {message}\n")
+def show_error(message: str, title: str = "BladeRecon", log: bool = True) -> None:
+    """Show ``message`` in the report view (unless ``log`` is False: already said there) and,
+    with the GUI up, in a message box."""
+    if log:
+        FreeCAD.Console.PrintError(f"BladeRecon: {message}\n")
     if FreeCAD.GuiUp:
         qt = _qt_widgets()
         qt.QMessageBox.critical(FreeCADGui.getMainWindow(), title, message)
@@ -88,13 +90,19 @@ def _ref(obj: Any) -> str:
     return "None" if obj is None else f"App.getDocument({obj.Document.Name!r}).getObject({obj.Name!r})"
 
 
-def _run(doc: Any, title: str, lines: list[str], result: str | None = None) -> Any:
+def _run(doc: Any, title: str, lines: list[str], result: str | None = None, then: Any = None) -> Any:
     """Run console ``lines`` in one undo transaction, recompute, report a failed object.
 
     ``result``: name of a variable the lines assign (e.g. the new object); returned.
-    Objects that fail to recompute stay in the document, marked failed, with their reason
-    in ``Status`` (shown here once).
+    ``then(obj)``: console lines to run in the same transaction once ``obj`` recomputed fine
+    (showing it: undo takes them back with the object).
+    A new object that fails on its first recompute is not left in the document: the
+    transaction is undone and the reason, already in the report view once (the object said
+    it), is shown in a message box. An existing object that fails keeps its previous result,
+    marked failed, with the reason in ``Status``.
     """
+    import __main__
+
     before = {o.Name: getattr(o, "Status", None) for o in doc.Objects}
     doc.openTransaction(title)
     try:
@@ -102,6 +110,18 @@ def _run(doc: Any, title: str, lines: list[str], result: str | None = None) -> A
         for line in lines:
             FreeCADGui.doCommand(line)
         FreeCADGui.doCommand(f"App.getDocument({doc.Name!r}).recompute()")
+        failed = [o for o in doc.Objects if str(getattr(o, "Status", "")).startswith("failed")
+                  and before.get(o.Name, "new") != o.Status]
+        new_failed = [o for o in failed if o.Name not in before]
+        reasons = "; ".join(o.Status[len("failed: "):] for o in failed)
+        if new_failed:
+            doc.abortTransaction()
+            show_error(reasons, log=False)
+            return None
+        obj = getattr(__main__, result, None) if result is not None else None
+        if then is not None and obj is not None:
+            for line in then(obj):
+                FreeCADGui.doCommand(line)
     except BladeReconError as err:
         doc.abortTransaction()
         show_error(str(err))
@@ -112,24 +132,35 @@ def _run(doc: Any, title: str, lines: list[str], result: str | None = None) -> A
         show_error(f"{title} failed: {type(err).__name__}: {err}")
         return None
     doc.commitTransaction()
-    # newly failed in this step (an object that already failed the same way is not repeated)
-    failed = [o for o in doc.Objects if str(getattr(o, "Status", "")).startswith("failed")
-              and before.get(o.Name) != o.Status]
     if failed:
-        show_error("; ".join(o.Status[len("failed: "):] for o in failed))
-    if result is None:
-        return None
-    import __main__
+        show_error(reasons, log=False)
+    return getattr(__main__, result, None) if result is not None else None
 
-    return getattr(__main__, result, None)
+
+def _view_step(doc: Any, title: str, lines: list[str]) -> None:
+    """View-only changes: replayable through doCommand, one undo step, no recompute."""
+    doc.openTransaction(title)
+    try:
+        for line in lines:
+            FreeCADGui.doCommand(line)
+    except Exception as err:
+        doc.abortTransaction()
+        FreeCAD.Console.PrintLog(traceback.format_exc())
+        show_error(f"{title} failed: {type(err).__name__}: {err}")
+        return
+    doc.commitTransaction()
 
 
 def import_points(path: str) -> Any:
-    """Import ``path`` as a MeasuredPoints object into the active document (a new one if none)."""
+    """Import ``path`` as a MeasuredPoints object into the active document (a new one if none).
+
+    A file with fewer than 2 sections imports (its sections can be analysed) with a warning:
+    it cannot make a surface.
+    """
     from bladerecon.core.io.readers import read_points
 
     try:
-        read_points(path)  # a bad file is reported here, before the document is touched
+        ps = read_points(path)  # a bad file is reported here, before the document is touched
     except BladeReconError as err:
         show_error(str(err))
         return None
@@ -140,10 +171,25 @@ def import_points(path: str) -> Any:
     doc = FreeCAD.ActiveDocument or FreeCAD.newDocument()
     obj = _run(doc, "Import measured points",
                [f"_br_points = bro.make_measured_points(App.getDocument({doc.Name!r}), {path!r})"], "_br_points")
+    if obj is not None and len(ps.section_names) < 2:
+        FreeCAD.Console.PrintWarning(
+            f"BladeRecon: {os.path.basename(path)}: {len(ps.section_names)} section only: a surface needs at "
+            "least 2 sections (Reconstruct cannot run on it)\n")
     if obj is not None and FreeCADGui.ActiveDocument is not None:
         obj.ViewObject.PointSize = SECTION_POINT_SIZE
         FreeCADGui.SendMsgToActiveView("ViewFit")
     return obj
+
+
+def import_nominal(path: str) -> Any:
+    """Import a nominal blade (STEP, IGES, BREP) as one Part feature labelled by its file name."""
+    doc = FreeCAD.ActiveDocument or FreeCAD.newDocument()
+    stem = os.path.splitext(os.path.basename(path))[0]
+    return _run(doc, "Import nominal",
+                ["import Part",
+                 f"_br_nominal = App.getDocument({doc.Name!r}).addObject('Part::Feature', 'Nominal')",
+                 f"_br_nominal.Shape = Part.read({path!r})",
+                 f"_br_nominal.Label = {stem!r}"], "_br_nominal")
 
 
 def analyse_sections(points_obj: Any) -> Any:
@@ -164,41 +210,100 @@ def reconstruct_surface(points_obj: Any, method: str = "auto", tolerance: float 
 
 def compare_with_nominal(measured: Any, nominal: Any, surface: Any = None, alignment: str = "none",
                          tolerance: float = 0.03, robust: bool = False) -> Any:
-    """Add a DeviationAnalysis of ``measured`` (and ``surface``) against ``nominal``; shows its
-    colour map. ``robust``: Tukey-biweight best fit (with an alignment)."""
+    """Add a DeviationAnalysis of ``measured`` (and ``surface``) against ``nominal`` and show its
+    colour map, all one undo step. ``robust``: Tukey-biweight best fit (with an alignment).
+
+    The nominal is hidden (it lies on the measured surface); deleting the analysis shows it again.
+    """
     doc = measured.Document
-    obj = _run(doc, "Compare with nominal",
-               [f"_br_deviation = bro.make_deviation_analysis(App.getDocument({doc.Name!r}), {_ref(measured)}, "
-                f"{_ref(nominal)}, {_ref(surface)}, alignment={alignment!r}, tolerance={float(tolerance)!r}, "
-                f"robust={bool(robust)!r})"],
-               "_br_deviation")
-    if obj is not None and obj.Status == "ok" and FreeCAD.GuiUp:
-        _view_step(doc, "Hide the nominal", [f"{_ref(nominal)}.ViewObject.Visibility = False"])
-        show_deviation_map(obj, "Surface" if surface is not None else "Points")
-    return obj
+
+    def show(analysis: Any) -> list[str]:
+        lines = []
+        if FreeCAD.GuiUp and nominal.ViewObject is not None and nominal.ViewObject.Visibility:
+            lines += [f"_br_deviation.ViewObject.HiddenByCompare = [{nominal.Name!r}]",
+                      f"{_ref(nominal)}.ViewObject.Visibility = False"]
+        if FreeCAD.GuiUp and analysis.Status == "ok":
+            lines += _map_lines(analysis, "Surface" if surface is not None else "Points", "_br_deviation")
+        return lines
+
+    return _run(doc, "Compare with nominal",
+                [f"_br_deviation = bro.make_deviation_analysis(App.getDocument({doc.Name!r}), {_ref(measured)}, "
+                 f"{_ref(nominal)}, {_ref(surface)}, alignment={alignment!r}, tolerance={float(tolerance)!r}, "
+                 f"robust={bool(robust)!r})"],
+                "_br_deviation", then=show)
+
+
+# --------------------------------------------------------------------------- colour maps
+def map_state(analysis: Any) -> str | None:
+    """Where the deviation map of ``analysis`` is shown: ``"Surface"``, ``"Points"`` or None."""
+    vobj = analysis.ViewObject
+    proxy = getattr(vobj, "Proxy", None)
+    if proxy is not None and hasattr(proxy, "surface_showing_me") and proxy.surface_showing_me() is not None:
+        return "Surface"
+    if vobj.Visibility and vobj.DisplayMode == "Points":
+        return "Points"
+    return None
+
+
+def _covering(analysis: Any) -> list:
+    """What would be drawn over a map: the measured points and their section curves."""
+    measured = analysis.Measured
+    if measured is None:
+        return []
+    return [measured] + [o for o in measured.Document.Objects
+                         if objects.is_type(o, "BladeSections") and o.Points == measured]
+
+
+def _map_lines(analysis: Any, target: str | None, ref: str | None = None) -> list[str]:
+    """Console lines that put the map of ``analysis`` on ``target`` ("Surface", "Points") or off (None)."""
+    from bladerecon.gui.view_providers import PLAIN_MODE
+
+    a = ref or _ref(analysis)
+    lines = []
+    state = map_state(analysis) if analysis.ViewObject is not None else None
+    surface = analysis.Surface
+    if state == "Surface" and target != "Surface":
+        lines.append(f"{_ref(surface)}.ViewObject.DisplayMode = {PLAIN_MODE!r}")
+    if state == "Points" and target != "Points":
+        lines.append(f"{a}.ViewObject.Visibility = False")
+    # what the map hides: visible now, or hidden by the map it replaces (shown again by the lines above)
+    was_hidden = set(analysis.ViewObject.HiddenByMap) if state == "Points" else set()
+    if state == "Surface":
+        was_hidden |= set(surface.ViewObject.HiddenByMode)
+    if target == "Surface":
+        hide = [o for o in _covering(analysis) if o.ViewObject.Visibility or o.Name in was_hidden]
+        kept = [n for n in surface.ViewObject.HiddenByMode if n not in {o.Name for o in hide}] \
+            if state != "Surface" and surface.ViewObject.DisplayMode in ("Zebra", "Curvature") else []
+        s = _ref(surface)
+        lines += [f"{a}.ViewObject.DisplayMode = 'Surface'", f"{a}.ViewObject.Visibility = False",
+                  f"{s}.ViewObject.HiddenByMode = {kept + [o.Name for o in hide]!r}"]
+        lines += [f"{_ref(o)}.ViewObject.Visibility = False" for o in hide]
+        lines += [f"{s}.ViewObject.DeviationMap = {analysis.Name!r}", f"{s}.ViewObject.DisplayMode = 'Deviation'",
+                  f"{s}.ViewObject.Visibility = True"]
+    elif target == "Points":
+        under = _covering(analysis) + ([surface] if surface is not None else [])
+        hide = [o for o in under if o.ViewObject.Visibility or o.Name in was_hidden or
+                (o == surface and state == "Surface")]
+        lines += [f"{a}.ViewObject.HiddenByMap = {[o.Name for o in hide]!r}"]
+        lines += [f"{_ref(o)}.ViewObject.Visibility = False" for o in hide]
+        lines += [f"{a}.ViewObject.DisplayMode = 'Points'", f"{a}.ViewObject.Visibility = True"]
+    return lines
 
 
 def show_deviation_map(analysis: Any, target: str | None = "Surface") -> None:
-    """Show the deviation colour map on the ``"Surface"`` or the ``"Points"``; ``None`` hides it.
+    """Show the deviation colour map on the ``"Surface"`` (a display mode of the surface) or the
+    ``"Points"``; ``None`` switches it off. One undo step, nothing recomputed.
 
-    Only visibility and display mode change (nothing is recomputed); the object under the
-    map is hidden so the two do not overlap.
+    What the map would be drawn under (the points, their section curves; the surface under the
+    points map) is hidden while it is on and shown again when it goes.
     """
-    lines = [f"_br_map = {_ref(analysis)}"]
-    if target is None:
-        lines += ["_br_map.ViewObject.Visibility = False"]
-        for link in ("Surface", "Measured"):
-            if getattr(analysis, link) is not None:
-                lines.append(f"_br_map.{link}.ViewObject.Visibility = True")
-    else:
-        under = analysis.Surface if target == "Surface" else analysis.Measured
-        if under is None:
-            show_error(f"{analysis.Label} has no {'surface' if target == 'Surface' else 'points'} to colour: "
-                       "link one in its properties")
-            return
-        lines += [f"_br_map.ViewObject.DisplayMode = {target!r}", "_br_map.ViewObject.Visibility = True",
-                  f"_br_map.{'Surface' if target == 'Surface' else 'Measured'}.ViewObject.Visibility = False"]
-    _view_step(analysis.Document, "Deviation colour map", lines)
+    if target == "Surface" and analysis.Surface is None:
+        show_error(f"{analysis.Label} has no surface to colour: link one in its properties, or use the map on points")
+        return
+    if target == "Points" and analysis.Measured is None:
+        show_error(f"{analysis.Label} has no points to colour: link them in its properties")
+        return
+    _view_step(analysis.Document, "Deviation colour map", _map_lines(analysis, target))
 
 
 def set_surface_analysis(surface: Any, mode: str | None, stripes: int | None = None, direction: str | None = None,
@@ -206,8 +311,12 @@ def set_surface_analysis(surface: Any, mode: str | None, stripes: int | None = N
     """Zebra (``mode="Zebra"``), curvature (``"Curvature"``) or plain (``None``) display of a BladeSurface.
 
     ``stripes``, ``direction`` (span, x, y) and ``curvature`` (Mean, Gaussian) set the view
-    properties first; only colours are recomputed, never the surface.
+    properties first; only colours are recomputed, never the surface. The analysis modes are
+    modes of the surface, so a deviation map on it gives way (and what it hid stays hidden
+    until the surface goes back to its plain display). One undo step.
     """
+    from bladerecon.gui.view_providers import PLAIN_MODE
+
     lines = [f"_br_view = {_ref(surface)}.ViewObject"]
     if stripes is not None:
         lines.append(f"_br_view.ZebraStripes = {int(stripes)}")
@@ -215,19 +324,9 @@ def set_surface_analysis(surface: Any, mode: str | None, stripes: int | None = N
         lines.append(f"_br_view.ZebraDirection = {direction!r}")
     if curvature is not None:
         lines.append(f"_br_view.CurvatureKind = {curvature!r}")
-    lines.append(f"_br_view.DisplayMode = {mode or 'Flat Lines'!r}")
+    lines.append(f"_br_view.DisplayMode = {mode or PLAIN_MODE!r}")
     lines.append("_br_view.Visibility = True")
     _view_step(surface.Document, "Surface analysis", lines)
-
-
-def _view_step(doc: Any, title: str, lines: list[str]) -> None:
-    """View-only changes: replayable through doCommand, no recompute."""
-    try:
-        for line in lines:
-            FreeCADGui.doCommand(line)
-    except Exception as err:
-        FreeCAD.Console.PrintLog(traceback.format_exc())
-        show_error(f"{title} failed: {type(err).__name__}: {err}")
 
 
 def export_step(surface: Any, path: str) -> bool:
@@ -242,11 +341,117 @@ def export_step(surface: Any, path: str) -> bool:
     return True
 
 
-def write_report(analysis: Any, folder: str) -> dict | None:
-    """Write the deviation report (report.html, plots, deviations.csv, summary.json) into ``folder``."""
+def _snapshot(analysis: Any) -> Any:
+    """What the report reads of ``analysis``, copied out of the document (the report runs off the
+    GUI thread while the document stays editable)."""
+    from types import SimpleNamespace as NS
+
+    def proxy(kind: str) -> Any:
+        return NS(Type=kind)
+
+    m = analysis.Measured
+    measured = None if m is None else NS(
+        Proxy=proxy("MeasuredPoints"), Label=m.Label, Points=list(m.Points), SectionIndex=list(m.SectionIndex),
+        LineNumbers=list(m.LineNumbers), SectionNames=list(m.SectionNames), SourceFile=m.SourceFile, Format=m.Format)
+    n = analysis.Nominal
+    nominal = None if n is None else NS(Label=n.Label, Shape=n.Shape.copy())
+    s = analysis.Surface
+    surface = None if s is None else NS(Label=s.Label, Shape=s.Shape.copy())
+    return NS(Proxy=proxy("DeviationAnalysis"), Label=analysis.Label, Measured=measured, Nominal=nominal,
+              Surface=surface, Alignment=analysis.Alignment, Tolerance=analysis.Tolerance,
+              RobustFit=analysis.RobustFit)
+
+
+class Cancelled(Exception):
+    """The user cancelled a long step on FreeCAD's progress bar."""
+
+
+def off_the_gui_thread(text: str, work: Any) -> Any:
+    """Run ``work()`` in a worker thread while FreeCAD's progress bar runs in the status bar (the
+    GUI keeps drawing; Esc on the bar asks and cancels: :class:`Cancelled` is raised here at once,
+    and the worker's result, when it comes, is thrown away). Returns ``work()``'s result or
+    raises its exception."""
+    import threading
+    import time
+
+    box: dict = {}
+
+    def target() -> None:
+        try:
+            box["result"] = work()
+        except BaseException as err:  # handed to the GUI thread
+            box["error"] = err
+
+    worker = threading.Thread(target=target, name=f"BladeRecon: {text}", daemon=True)
+    maker = getattr(FreeCAD.Base, "ProgressIndicator", None) if FreeCAD.GuiUp else None
+    bar = maker() if maker is not None else None
+    worker.start()
+    if bar is not None:
+        bar.start(text, 0)
     try:
-        FreeCADGui.doCommand("import bladerecon.report.deviation as br_report")
-        FreeCADGui.doCommand(f"_br_report = br_report.write_analysis_report({_ref(analysis)}, {folder!r})")
+        while worker.is_alive():
+            worker.join(0.05)
+            if bar is not None:
+                try:
+                    bar.next(True)
+                except Exception as err:   # FreeCAD 0.20: RuntimeError("abort progress indicator")
+                    if "abort" in f"{type(err).__name__} {err}".lower():
+                        raise Cancelled(text) from None
+                    raise
+            if FreeCAD.GuiUp:
+                FreeCADGui.updateGui()
+            time.sleep(0.0)
+    finally:
+        if bar is not None:
+            bar.stop()
+    if "error" in box:
+        raise box["error"]
+    return box.get("result")
+
+
+def write_report(analysis: Any, folder: str, ask: bool = True) -> dict | None:
+    """Write the deviation report (report.html, plots, deviations.csv, summary.json) into ``folder``.
+
+    The report is made off the GUI thread under FreeCAD's progress bar (Esc cancels), in a
+    folder of its own next to ``folder``; only a finished report replaces ``folder``, and an
+    existing ``folder`` only after the user said yes (``ask``). The console line it runs
+    (``br_report.write_analysis_report``) replays it in the foreground.
+    """
+    import shutil
+    import tempfile
+
+    folder = os.path.abspath(folder)
+    parent = os.path.dirname(folder)
+    if not os.path.isdir(parent):
+        show_error(f"report folder {folder}: folder {parent} does not exist; create it first")
+        return None
+    if ask and os.path.exists(folder) and FreeCAD.GuiUp:
+        qt = _qt_widgets()
+        answer = qt.QMessageBox.question(
+            FreeCADGui.getMainWindow(), "Replace the report?",
+            f"{folder} exists. Replace it with the report of {analysis.Label}?",
+            qt.QMessageBox.Yes | qt.QMessageBox.No, qt.QMessageBox.No)
+        if answer != qt.QMessageBox.Yes:
+            FreeCAD.Console.PrintMessage(f"BladeRecon: report not written: {folder} kept\n")
+            return None
+    # the same report in the foreground, from the console:
+    FreeCADGui.doCommand(f"# import bladerecon.report.deviation as br_report; _br_report = "
+                         f"br_report.write_analysis_report({_ref(analysis)}, {folder!r})")
+    from bladerecon.report.deviation import write_analysis_report
+
+    snapshot = _snapshot(analysis)
+    staging = tempfile.mkdtemp(prefix=".bladerecon-report-", dir=parent)
+    made = os.path.join(staging, os.path.basename(folder))
+    try:
+        summary = off_the_gui_thread(f"{analysis.Label}: writing the report",
+                                     lambda: write_analysis_report(snapshot, made))
+        if os.path.isdir(folder):
+            shutil.rmtree(folder)
+        os.replace(made, folder)
+    except Cancelled:
+        FreeCAD.Console.PrintWarning(f"BladeRecon: report cancelled; {folder} "
+                                     f"{'kept as it was' if os.path.exists(folder) else 'not written'}\n")
+        return None
     except BladeReconError as err:
         show_error(str(err))
         return None
@@ -254,10 +459,10 @@ def write_report(analysis: Any, folder: str) -> dict | None:
         FreeCAD.Console.PrintLog(traceback.format_exc())
         show_error(f"report failed: {type(err).__name__}: {err}")
         return None
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
     FreeCAD.Console.PrintMessage(f"BladeRecon: report in {folder}\n")
-    import __main__
-
-    return getattr(__main__, "_br_report", None)
+    return summary
 
 
 # --------------------------------------------------------------------------- commands

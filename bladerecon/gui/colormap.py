@@ -127,9 +127,16 @@ def grid_normals(grid: np.ndarray, u_periodic: bool = True) -> np.ndarray:
     return n / np.where(size > 0, size, 1.0)
 
 
-def legend_ticks(limit: float, tolerance: float | None) -> list[tuple[float, str]]:
-    """(value in mm, label) for the colour bar: the ends, zero and the tolerance band."""
-    ticks = [(-limit, f"{-limit:+.4f}"), (0.0, "0"), (limit, f"{limit:+.4f}")]
+def legend_ticks(limit: float, tolerance: float | None, unit: str = "mm") -> list[tuple[float, str]]:
+    """(value in mm, label) for the colour bar: the ends, zero and the tolerance band.
+
+    ``unit``: the labels' unit, ``"mm"`` or ``"µm"`` (the GUI's legends, as the HTML report)."""
+    scale, fmt = (1000.0, "{:+.1f}") if unit in ("µm", "um") else (1.0, "{:+.4f}")
+
+    def label(v: float) -> str:
+        return fmt.format(v * scale)
+
+    ticks = [(-limit, label(-limit)), (0.0, "0"), (limit, label(limit))]
     if tolerance is not None and 0 < tolerance < limit:
-        ticks += [(-tolerance, f"-tol {tolerance:.4f}"), (tolerance, f"+tol {tolerance:.4f}")]
+        ticks += [(-tolerance, f"-tol {label(tolerance)[1:]}"), (tolerance, f"+tol {label(tolerance)[1:]}")]
     return sorted(ticks)

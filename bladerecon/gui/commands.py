@@ -27,7 +27,9 @@ from bladerecon.gui.actions import (  # noqa: F401  (the tspline and acquire com
     _nominal_candidates,
     _has_surface,
     import_points,
+    import_nominal,
     analyse_sections,
+    map_state,
     show_deviation_map,
     set_surface_analysis,
     export_step,
@@ -111,17 +113,33 @@ class Reconstruct(_OnObject):
 class Compare(_Command):
     icon = "BladeRecon_Compare"
     menu_text = "Compare with nominal"
-    tool_tip = ("Signed deviation of the measured points and surface from the nominal: "
-                "select the nominal shape in the tree (and the measured points if there are several)")
+    tool_tip = ("Signed deviation of the measured points and surface from the nominal: select the nominal "
+                "shape in the tree, or choose its file (STEP, IGES, BREP) when asked")
     needs_document = True
 
     def active(self) -> bool:
-        return bool(_nominal_candidates()) and find_object("MeasuredPoints") is not None
+        return find_object("MeasuredPoints") is not None
 
     def Activated(self) -> None:  # noqa: N802
+        points = find_object("MeasuredPoints")
+        candidates = _nominal_candidates()
+        nominal = candidates[0] if candidates else self.ask_nominal()
+        if nominal is None:
+            return
+        FreeCADGui.Control.showDialog(task_panels.ComparePanel(points, nominal, _surface_of(points)))
 
-        FreeCADGui.Control.showDialog(task_panels.ComparePanel(find_object("MeasuredPoints"), _nominal_candidates()[0],
-                                                   _surface_of(find_object("MeasuredPoints"))))
+    @staticmethod
+    def ask_nominal() -> Any:
+        """No nominal selected: choose its file; it is imported under its file name."""
+        params = FreeCAD.ParamGet(_PARAMS)
+        qt = _qt_widgets()
+        path, _ = qt.QFileDialog.getOpenFileName(
+            FreeCADGui.getMainWindow(), "Nominal blade to compare with", params.GetString("LastNominalDir", ""),
+            "CAD (*.step *.stp *.iges *.igs *.brep *.brp);;All files (*)")
+        if not path:
+            return None
+        params.SetString("LastNominalDir", os.path.dirname(path))
+        return import_nominal(path)
 
 
 def _surface_of(points_obj: Any) -> Any:
@@ -137,26 +155,34 @@ def _surface_of(points_obj: Any) -> Any:
 class DeviationMap(_OnObject):
     icon = "BladeRecon_DeviationMap"
     menu_text = "Deviation colour map"
-    tool_tip = ("Colour the surface (or the points, if there is no surface) by signed deviation, "
-                "with a legend in mm and the tolerance band; again to switch off")
+    tool_tip = ("Show or hide the deviation colour map (legend in µm, tolerance band marked) where it was: "
+                "on the surface, or on the points")
     target = "DeviationAnalysis"
 
     def Activated(self) -> None:  # noqa: N802
         analysis = find_object(self.target)
-        if analysis.ViewObject.Visibility:
+        if map_state(analysis) is not None:
             show_deviation_map(analysis, None)
-        else:
-            show_deviation_map(analysis, "Surface" if analysis.Surface is not None else "Points")
+            return
+        where = analysis.ViewObject.DisplayMode
+        if where == "Surface" and analysis.Surface is None:
+            where = "Points"
+        show_deviation_map(analysis, where)
 
 
 class DeviationOnPoints(_OnObject):
     icon = "BladeRecon_DeviationPoints"
     menu_text = "Deviation colour map on points"
-    tool_tip = "Colour the measured points by signed deviation from the nominal, with a legend in mm"
+    tool_tip = ("Colour the measured points by signed deviation from the nominal (legend in µm); "
+                "again to put the map back on the surface")
     target = "DeviationAnalysis"
 
     def Activated(self) -> None:  # noqa: N802
-        show_deviation_map(find_object(self.target), "Points")
+        analysis = find_object(self.target)
+        if map_state(analysis) == "Points":
+            show_deviation_map(analysis, "Surface" if analysis.Surface is not None else None)
+        else:
+            show_deviation_map(analysis, "Points")
 
 
 class _SurfaceCommand(_OnObject):

@@ -20,10 +20,16 @@ def _load(name: str) -> Any:
 
 
 class _Panel:
-    ui = ""
+    """Base of the panels: ``form`` is the loaded .ui file named by ``FORM``.
+
+    FreeCAD's task dialog takes an attribute named ``ui`` for the path of a .ui file (before it
+    looks at ``form``), so no panel may have one.
+    """
+
+    FORM = ""
 
     def __init__(self) -> None:
-        self.form = _load(self.ui)
+        self.form = _load(self.FORM)
         self.result = None
 
     def reject(self) -> bool:
@@ -46,7 +52,7 @@ class _Panel:
 class ReconstructPanel(_Panel):
     """Method and tolerance, then :func:`actions.reconstruct_surface`."""
 
-    ui = "Reconstruct"
+    FORM = "Reconstruct"
 
     def __init__(self, points_obj: Any) -> None:
         super().__init__()
@@ -64,7 +70,7 @@ class ReconstructPanel(_Panel):
 class ComparePanel(_Panel):
     """Alignment, tolerance and whether to colour the surface, then :func:`actions.compare_with_nominal`."""
 
-    ui = "Compare"
+    FORM = "Compare"
 
     def __init__(self, measured: Any, nominal: Any, surface: Any = None) -> None:
         super().__init__()
@@ -89,15 +95,20 @@ class ComparePanel(_Panel):
 
 
 class SurfaceAnalysisPanel(_Panel):
-    """Zebra (stripe count, direction), curvature (mean/Gaussian) or off; previewed as it changes."""
+    """Zebra (stripe count, direction), curvature (mean/Gaussian) or off; previewed as it changes.
 
-    ui = "SurfaceAnalysis"
+    The preview is undone before OK runs the step, so that the step (one undo transaction)
+    records the change from what the surface showed before the panel.
+    """
+
+    FORM = "SurfaceAnalysis"
+    PROPS = ("ZebraStripes", "ZebraDirection", "CurvatureKind", "DisplayMode")
 
     def __init__(self, surface: Any, mode: str = "Zebra") -> None:
         super().__init__()
         self.surface = surface
         vobj = surface.ViewObject
-        self.previous = vobj.DisplayMode
+        self.before = {p: getattr(vobj, p) for p in self.PROPS}
         self.form.mode.setCurrentText(mode)
         self.form.stripes.setValue(vobj.ZebraStripes)
         self.form.direction.setCurrentText(vobj.ZebraDirection)
@@ -113,14 +124,31 @@ class SurfaceAnalysisPanel(_Panel):
                 "direction": self.form.direction.currentText(), "curvature": self.form.curvature.currentText()}
 
     def preview(self, *_: Any) -> None:
+        from bladerecon.gui.view_providers import PLAIN_MODE
+
         o = self.options()
         vobj = self.surface.ViewObject
         vobj.ZebraStripes, vobj.ZebraDirection, vobj.CurvatureKind = o["stripes"], o["direction"], o["curvature"]
-        vobj.DisplayMode = o["mode"] or "Flat Lines"
+        previous = self.before["DisplayMode"]
+        # "Off" previews what the surface showed before (a deviation map stays), else the plain display
+        vobj.DisplayMode = o["mode"] or (previous if previous not in ("Zebra", "Curvature") else PLAIN_MODE)
+
+    def _undo_preview(self) -> None:
+        vobj = self.surface.ViewObject
+        for prop, value in self.before.items():
+            if getattr(vobj, prop) != value:
+                setattr(vobj, prop, value)
 
     def reject(self) -> bool:
-        self.surface.ViewObject.DisplayMode = self.previous
+        self._undo_preview()
         return super().reject()
+
+    def accept(self) -> bool:
+        options = self.options()
+        FreeCADGui.Control.closeDialog()
+        self._undo_preview()
+        self.result = self.run(**options)
+        return True
 
     def run(self, **options: Any) -> Any:
         actions.set_surface_analysis(self.surface, **options)

@@ -5,7 +5,8 @@ deviation maps drawn with coin (pivy) on a tessellation of the B-spline face.
 Each analysis is an extra display mode whose geometry (vertices, exact normals) is built
 once when the shape changes; switching mode, stripe count or colour range only rewrites
 the per-vertex ``SoMaterial`` colours, so nothing is recomputed in the document.
-Units in legends: mm (deviation), 1/mm and 1/mm^2 (curvature).
+Units in legends: µm (deviation, as the HTML report), 1/mm and 1/mm^2 (curvature).
+A selected object in a colour-map mode shows as an outline, never repainted (the map stays true).
 
 The proxies keep no state worth saving (``dumps`` returns None); their module path is
 permanent because FCStd files name it.
@@ -23,7 +24,8 @@ from bladerecon.fc import objects
 from bladerecon.gui import colormap, paths
 
 __all__ = ["ViewProviderMeasuredPoints", "ViewProviderBladeSections", "ViewProviderBladeSurface",
-           "ViewProviderDeviationAnalysis", "ColourLegend", "ColouredMesh"]
+           "ViewProviderDeviationAnalysis", "ColourLegend", "ColouredMesh", "SURFACE_MODES", "PLAIN_MODE",
+           "show_again", "draw_surface_deviation"]
 
 #: display samples per knot span around the section, and along the span, of the analysis mesh
 MESH_PER_SPAN = 4
@@ -88,6 +90,9 @@ class ColouredMesh:
         self.count = nu * nv
         self.coords.point.setNum(0)
         self.normals.vector.setNum(0)
+        if not self.count:
+            self.mesh.verticesPerRow = self.mesh.verticesPerColumn = 0
+            return
         self.coords.point.setValues(0, self.count, grid.reshape(-1, 3).tolist())
         self.normals.vector.setValues(0, self.count, normals.reshape(-1, 3).tolist())
         self.mesh.verticesPerRow = nv
@@ -323,13 +328,67 @@ class ViewProviderBladeSections(_ViewProvider):
             self.marks.addChild(sep)
 
 
+# --------------------------------------------------------------------------- selection, hidden objects
+#: display modes that colour an object by a value: a selection must not repaint them
+MAPPED_MODES = ("Zebra", "Curvature", "Deviation", "Points")
+#: the surface's analysis modes (one at a time: the surface is drawn once, by its view provider)
+SURFACE_MODES = ("Zebra", "Curvature", "Deviation")
+#: the Part mode a surface goes back to when it leaves its analysis modes
+PLAIN_MODE = "Flat Lines"
+
+
+def _selection_outline(vobj: Any, mapped: bool) -> None:
+    """A selected object in a colour-map mode shows as a box outline, not repainted in the
+    selection colour (which would make the map and its legend lie); other modes as FreeCAD does.
+
+    FreeCAD's selection root paints a whole selected object (style Full) unless its style is
+    Box (the BoundBox of the SelectionStyle property of Part objects)."""
+    root = getattr(vobj, "RootNode", None)
+    field = root.getField("selectionStyle") if root is not None else None
+    if field is None:
+        return
+    user_box = getattr(vobj, "SelectionStyle", "Shape") == "BoundBox"
+    field.set("Box" if mapped or user_box else "Full")
+
+
+def _restoring(vobj: Any) -> bool:
+    doc = getattr(getattr(vobj, "Object", None), "Document", None)
+    return bool(getattr(doc, "Restoring", False))
+
+
+def show_again(vobj: Any, prop: str) -> None:
+    """Show the objects named in the view property ``prop`` (hidden by a mode) and forget them."""
+    names = list(getattr(vobj, prop, []) or [])
+    if not names:
+        return
+    doc = vobj.Object.Document
+    for name in names:
+        other = doc.getObject(name)
+        if other is not None and other.ViewObject is not None:
+            other.ViewObject.Visibility = True
+    setattr(vobj, prop, [])
+
+
+def _hidden_list(vobj: Any, name: str, tip: str) -> None:
+    if name not in vobj.PropertiesList:
+        vobj.addProperty("App::PropertyStringList", name, "Analysis", tip)
+    vobj.setEditorMode(name, 2)
+
+
 # --------------------------------------------------------------------------- surface
 class ViewProviderBladeSurface(_ViewProvider):
-    """The B-spline face (Part display) plus ``Zebra`` and ``Curvature`` display modes.
+    """The B-spline face (Part display) plus the analysis display modes ``Zebra``, ``Curvature``
+    and ``Deviation``: one surface display at a time, each analysis mode with its own legend.
 
     Zebra: per-vertex black/white from the exact unit normals reflected about the current
     view direction (:func:`bladerecon.gui.colormap.zebra_colours`); the stripes follow the
     camera while the mode is on. Curvature: Gaussian (1/mm^2) or mean (1/mm), outward normal.
+    Deviation: the signed deviation of the surface from the nominal, from the DeviationAnalysis
+    named by ``DeviationMap`` (µm, as the HTML report).
+
+    ``HiddenByMode``: objects an analysis mode hid (the points and section curves under the
+    map); they are shown again when the surface leaves its analysis modes, whichever way
+    (command, undo, deleting the analysis).
     """
 
     ICON = "BladeRecon_Reconstruct"
@@ -347,6 +406,9 @@ class ViewProviderBladeSurface(_ViewProvider):
         if "CurvatureKind" not in vobj.PropertiesList:
             vobj.addProperty("App::PropertyEnumeration", "CurvatureKind", "Analysis", "Gaussian (1/mm^2) or mean (1/mm)")
             vobj.CurvatureKind = ["Mean", "Gaussian"]
+        _add_view_property(vobj, "App::PropertyString", "DeviationMap", "Analysis",
+                           "name of the DeviationAnalysis the Deviation display mode shows", "")
+        _hidden_list(vobj, "HiddenByMode", "objects hidden while an analysis mode is on (shown again after)")
 
     def attach(self, vobj: Any) -> None:
         self._add_properties(vobj)
@@ -362,16 +424,22 @@ class ViewProviderBladeSurface(_ViewProvider):
         curvature_mode = coin.SoSeparator()
         curvature_mode.addChild(self.curvature.node)
         curvature_mode.addChild(self.legend.node)
+        self.deviation = ColouredMesh(lit=True)
+        self.deviation_legend = ColourLegend()
+        deviation_mode = coin.SoSeparator()
+        deviation_mode.addChild(self.deviation.node)
+        deviation_mode.addChild(self.deviation_legend.node)
         vobj.addDisplayMode(self.zebra.node, "Zebra")
         vobj.addDisplayMode(curvature_mode, "Curvature")
+        vobj.addDisplayMode(deviation_mode, "Deviation")
         self.geometry = None      # (normals (m, 3), Curvature) of the current shape, built lazily
         self.sensor = None
 
     def getDisplayModes(self, vobj: Any) -> list[str]:  # noqa: N802
-        return ["Zebra", "Curvature"]
+        return list(SURFACE_MODES)
 
     def getDefaultDisplayMode(self) -> str:  # noqa: N802
-        return "Flat Lines"
+        return PLAIN_MODE
 
     def updateData(self, obj: Any, prop: str) -> None:  # noqa: N802
         if prop == "Shape" and hasattr(self, "zebra"):
@@ -379,8 +447,29 @@ class ViewProviderBladeSurface(_ViewProvider):
             self._refresh(obj.ViewObject)
 
     def onChanged(self, vobj: Any, prop: str) -> None:  # noqa: N802
-        if prop in ("DisplayMode", "ZebraStripes", "ZebraDirection", "CurvatureKind") and hasattr(self, "zebra"):
+        if not hasattr(self, "zebra"):
+            return
+        if prop in ("DisplayMode", "ZebraStripes", "ZebraDirection", "CurvatureKind", "DeviationMap"):
             self._refresh(vobj)
+        if prop in ("DisplayMode", "SelectionStyle"):
+            _selection_outline(vobj, vobj.DisplayMode in SURFACE_MODES)
+        if prop == "DisplayMode" and vobj.DisplayMode not in SURFACE_MODES and not _restoring(vobj):
+            show_again(vobj, "HiddenByMode")
+
+    def deviation_analysis(self) -> Any:
+        """The DeviationAnalysis shown by the Deviation mode (``DeviationMap``, else the newest on this surface)."""
+        obj = self.Object
+        vobj = obj.ViewObject
+        named = obj.Document.getObject(vobj.DeviationMap) if vobj.DeviationMap else None
+        if named is not None and objects.is_type(named, "DeviationAnalysis"):
+            return named
+        mine = [o for o in obj.Document.Objects if objects.is_type(o, "DeviationAnalysis") and o.Surface == obj]
+        return mine[-1] if mine else None
+
+    def refresh_deviation(self) -> None:
+        """Redraw the Deviation mode from its analysis (its results or its colour range changed)."""
+        if hasattr(self, "deviation") and self.Object.ViewObject.DisplayMode == "Deviation":
+            self._refresh(self.Object.ViewObject)
 
     def _build_geometry(self, obj: Any) -> bool:
         from bladerecon.core.geometry.bspline import surface_derivatives
@@ -404,6 +493,12 @@ class ViewProviderBladeSurface(_ViewProvider):
         mode = vobj.DisplayMode
         if mode not in ("Zebra", "Curvature"):
             self._follow_camera(False)
+        if mode == "Deviation":
+            analysis = self.deviation_analysis()
+            if analysis is not None:
+                draw_surface_deviation(analysis, self.deviation, self.deviation_legend)
+            return
+        if mode not in ("Zebra", "Curvature"):
             return
         if self.geometry is None and not self._build_geometry(vobj.Object):
             return
@@ -461,11 +556,48 @@ def _view_direction() -> np.ndarray:
 
 
 # --------------------------------------------------------------------------- deviation
-class ViewProviderDeviationAnalysis(_ViewProvider):
-    """Deviation colour map on the surface (mode ``Surface``) or the points (``Points``), with legend.
+def _colour_limit(analysis: Any, values: np.ndarray) -> float:
+    vobj = analysis.ViewObject
+    chosen = getattr(vobj, "ColourRange", 0.0) if vobj is not None else 0.0
+    return chosen if chosen > 0 else colormap.deviation_limit(values, analysis.Tolerance)
 
-    Blue inside the nominal, red outside, darker beyond the colour range; the legend marks
-    the ±tolerance band. ``ColourRange`` 0 takes min(2 x tolerance, largest |deviation|).
+
+def _deviation_legend(legend: ColourLegend, what: str, limit: float, tolerance: float) -> None:
+    """The deviation legend in µm, as the HTML report (values in mm in, labels in µm out)."""
+    ticks = [(v / limit, label) for v, label in colormap.legend_ticks(limit, tolerance, unit="µm")]
+    note = f"tolerance ±{tolerance * 1000:.1f} µm" + ("" if tolerance < limit else " (beyond the bar)")
+    legend.update(lambda t: colormap.deviation_colours(t * limit, limit), ticks,
+                  f"{what} - nominal, µm\n+ outside, - inside", band=(tolerance / limit, note))
+
+
+def draw_surface_deviation(analysis: Any, mesh: ColouredMesh, legend: ColourLegend) -> bool:
+    """Fill ``mesh`` and ``legend`` with the surface deviation map of ``analysis``; False if it has none."""
+    size = list(analysis.SurfaceGridSize)
+    sdev = np.array(analysis.SurfaceDeviations, float)
+    if not (len(size) == 2 and len(sdev) == size[0] * size[1] == len(analysis.SurfaceGrid) and len(sdev)):
+        mesh.set_geometry(np.zeros((0, 0, 3)), np.zeros((0, 0, 3)))
+        legend.content.removeAllChildren()
+        return False
+    grid = np.array([(p.x, p.y, p.z) for p in analysis.SurfaceGrid]).reshape(size[0], size[1], 3)
+    mesh.set_geometry(grid, colormap.grid_normals(grid))
+    lim = _colour_limit(analysis, sdev)
+    mesh.set_colours(colormap.deviation_colours(sdev, lim))
+    _deviation_legend(legend, "surface", lim, analysis.Tolerance)
+    return True
+
+
+class ViewProviderDeviationAnalysis(_ViewProvider):
+    """Deviation colour map of the points (display mode ``Points``, with its legend).
+
+    The map on the surface is a display mode of the surface itself (``Deviation``, see
+    :class:`ViewProviderBladeSurface`), so the surface is drawn once; this object's mode
+    ``Surface`` draws nothing and says the map belongs on the surface (what the map
+    commands toggle). Blue inside the nominal, red outside, darker beyond the colour range;
+    the legend (µm) marks the ±tolerance band. ``ColourRange`` 0 takes min(2 x tolerance,
+    largest |deviation|).
+
+    ``HiddenByMap``: the points hidden under the points map (shown again when it goes);
+    ``HiddenByCompare``: the nominal Compare hid (shown again when this object is deleted).
     """
 
     ICON = "BladeRecon_DeviationMap"
@@ -478,18 +610,19 @@ class ViewProviderDeviationAnalysis(_ViewProvider):
         _add_view_property(vobj, "App::PropertyFloat", "ColourRange", "Colour map",
                            "deviation at the ends of the colour bar (mm); 0 = automatic", 0.0)
         _add_view_property(vobj, "App::PropertyFloat", "PointSize", "Colour map", "point size (pixels)", 4.0)
+        _hidden_list(vobj, "HiddenByMap", "objects hidden under the points map (shown again after)")
+        _hidden_list(vobj, "HiddenByCompare", "objects Compare hid (shown again when this is deleted)")
 
     def attach(self, vobj: Any) -> None:
         self._add_properties(vobj)
         self.Object = vobj.Object
-        self.surface = ColouredMesh(lit=True)
         self.points = ColouredPoints(vobj.PointSize)
-        self.legends = {"Surface": ColourLegend(), "Points": ColourLegend()}
-        for mode, node in (("Surface", self.surface.node), ("Points", self.points.node)):
-            sep = coin.SoSeparator()
-            sep.addChild(node)
-            sep.addChild(self.legends[mode].node)
-            vobj.addDisplayMode(sep, mode)
+        self.legend = ColourLegend()
+        sep = coin.SoSeparator()
+        sep.addChild(self.points.node)
+        sep.addChild(self.legend.node)
+        vobj.addDisplayMode(sep, "Points")
+        vobj.addDisplayMode(coin.SoSeparator(), "Surface")
         self._update(vobj.Object)
 
     def getDisplayModes(self, vobj: Any) -> list[str]:  # noqa: N802
@@ -503,45 +636,110 @@ class ViewProviderDeviationAnalysis(_ViewProvider):
 
     def updateData(self, obj: Any, prop: str) -> None:  # noqa: N802
         if prop in ("Deviations", "AlignedPoints", "SurfaceDeviations", "SurfaceGrid", "SurfaceGridSize", "Tolerance") \
-                and hasattr(self, "surface"):
+                and hasattr(self, "points"):
             self._update(obj)
 
     def onChanged(self, vobj: Any, prop: str) -> None:  # noqa: N802
-        if not hasattr(self, "surface"):
+        if not hasattr(self, "points"):
             return
         if prop == "ColourRange":
             self._update(vobj.Object)
         elif prop == "PointSize":
             self.points.style.pointSize = vobj.PointSize
+        elif prop in ("DisplayMode", "Visibility"):
+            on_points = vobj.DisplayMode == "Points" and vobj.Visibility
+            was_on, self.on_points = getattr(self, "on_points", False), on_points
+            _selection_outline(vobj, vobj.DisplayMode == "Points")
+            if was_on and not on_points and not _restoring(vobj):   # the points map went: give back
+                show_again(vobj, "HiddenByMap")
+
+    def surface_showing_me(self) -> Any:
+        surface = getattr(self.Object, "Surface", None)
+        svo = getattr(surface, "ViewObject", None)
+        proxy = getattr(svo, "Proxy", None)
+        if svo is None or svo.DisplayMode != "Deviation" or not hasattr(proxy, "deviation_analysis"):
+            return None
+        return surface if proxy.deviation_analysis() == self.Object else None
+
+    def onDelete(self, vobj: Any, subelements: Any) -> bool:  # noqa: N802
+        """Deleting the analysis gives back what it hid: the surface leaves its map, the points
+        and the nominal show again."""
+        surface = self.surface_showing_me()
+        if surface is not None:
+            surface.ViewObject.DisplayMode = PLAIN_MODE
+            surface.ViewObject.Visibility = True
+        show_again(vobj, "HiddenByMap")
+        show_again(vobj, "HiddenByCompare")
+        return True
 
     def limit(self, values: np.ndarray) -> float:
-        vobj = self.Object.ViewObject
-        chosen = getattr(vobj, "ColourRange", 0.0)
-        return chosen if chosen > 0 else colormap.deviation_limit(values, self.Object.Tolerance)
+        return _colour_limit(self.Object, values)
 
     def _update(self, obj: Any) -> None:
-        tol = obj.Tolerance
         dev = np.array(obj.Deviations, float)
         if len(dev) and len(obj.AlignedPoints) == len(dev):
             lim = self.limit(dev)
             self.points.set(np.array([(p.x, p.y, p.z) for p in obj.AlignedPoints]), colormap.deviation_colours(dev, lim))
-            self._legend("Points", lim, tol)
-        size = list(obj.SurfaceGridSize)
-        sdev = np.array(obj.SurfaceDeviations, float)
-        if len(size) == 2 and len(sdev) == size[0] * size[1] == len(obj.SurfaceGrid):
-            grid = np.array([(p.x, p.y, p.z) for p in obj.SurfaceGrid]).reshape(size[0], size[1], 3)
-            self.surface.set_geometry(grid, colormap.grid_normals(grid))
-            lim = self.limit(sdev)
-            self.surface.set_colours(colormap.deviation_colours(sdev, lim))
-            self._legend("Surface", lim, tol)
+            _deviation_legend(self.legend, "points", lim, obj.Tolerance)
+        surface = self.surface_showing_me()
+        if surface is not None:
+            surface.ViewObject.Proxy.refresh_deviation()
 
-    def _legend(self, mode: str, limit: float, tolerance: float) -> None:
-        what = "surface" if mode == "Surface" else "points"
-        ticks = [(v / limit, label) for v, label in colormap.legend_ticks(limit, tolerance)]
-        note = f"tolerance ±{tolerance:.4f} mm" + ("" if tolerance < limit else " (beyond the bar)")
-        self.legends[mode].update(lambda t: colormap.deviation_colours(t * limit, limit), ticks,
-                                  f"{what} - nominal, mm\n+ outside, - inside", band=(tolerance / limit, note))
 
+# --------------------------------------------------------------------------- failed recomputes
+class _QuietFailure:
+    """After a BladeRecon object has said in one line why its recompute failed, keep FreeCAD's own
+    report of the exception that marks it failed (a Python traceback, "Recompute failed!") out
+    of the report view and the status bar, until the recompute is over."""
+
+    OBSERVERS = ("ReportOutput", "StatusBar")
+
+    def __init__(self) -> None:
+        self.muted: list[str] = []
+        self.since = 0.0
+
+    def __call__(self, obj: Any, message: str) -> None:
+        import time
+
+        import FreeCAD
+
+        if not FreeCAD.GuiUp or self.muted:
+            return
+        for name in self.OBSERVERS:
+            try:
+                if FreeCAD.Console.GetStatus(name, "Err"):
+                    FreeCAD.Console.SetStatus(name, "Err", False)
+                    self.muted.append(name)
+            except Exception:
+                continue
+        self.since = time.time()
+        if self.muted:
+            self._later(0)
+
+    @staticmethod
+    def _timer() -> Any:
+        from PySide import QtCore
+
+        return QtCore.QTimer
+
+    def _later(self, ms: int) -> None:
+        self._timer().singleShot(ms, self._check)
+
+    def _check(self) -> None:
+        import time
+
+        import FreeCAD
+
+        busy = any(getattr(d, "Recomputing", False) for d in FreeCAD.listDocuments().values())
+        if busy and time.time() - self.since < 120:
+            self._later(50)
+            return
+        for name in self.muted:
+            FreeCAD.Console.SetStatus(name, "Err", True)
+        self.muted = []
+
+
+objects.register_failure_hook(_QuietFailure())
 
 for _kind in ("MeasuredPoints", "BladeSections", "BladeSurface", "DeviationAnalysis"):
     objects.register_view_provider(_kind, globals()[f"ViewProvider{_kind}"])
