@@ -692,18 +692,24 @@ class _QuietFailure:
     report of the exception that marks it failed (a Python traceback, "Recompute failed!") out
     of the report view and the status bar, until the recompute is over."""
 
-    OBSERVERS = ("ReportOutput", "StatusBar")
+    OBSERVERS = ("ReportOutput", "StatusBar", "NotificationArea")
 
     def __init__(self) -> None:
         self.muted: list[str] = []
         self.since = 0.0
+        self.line = ""
 
     def __call__(self, obj: Any, message: str) -> None:
         import time
 
         import FreeCAD
 
-        if not FreeCAD.GuiUp or self.muted:
+        if not FreeCAD.GuiUp:
+            return
+        # the status bar says it too (again once the recompute is over: FreeCAD 1.0 clears it)
+        self.line = f"BladeRecon: {message if message.startswith(obj.Label) else f'{obj.Label}: {message}'}"
+        FreeCADGui.getMainWindow().statusBar().showMessage(self.line)
+        if self.muted:
             return
         for name in self.OBSERVERS:
             try:
@@ -713,8 +719,7 @@ class _QuietFailure:
             except Exception:
                 continue
         self.since = time.time()
-        if self.muted:
-            self._later(0)
+        self._later(0)
 
     @staticmethod
     def _timer() -> Any:
@@ -737,6 +742,9 @@ class _QuietFailure:
         for name in self.muted:
             FreeCAD.Console.SetStatus(name, "Err", True)
         self.muted = []
+        if self.line:
+            FreeCADGui.getMainWindow().statusBar().showMessage(self.line)
+            self.line = ""
 
 
 objects.register_failure_hook(_QuietFailure())
