@@ -2,7 +2,7 @@
 """The workbench's failure paths as a FreeCAD user meets them, through FreeCAD's own paths (the
 harness of ``tests/test_workbench_gui.py``): a file that is no point file, a file that cannot
 make a surface (one section), a failed recompute, a tolerance that is not met, a nominal far
-away, undo of Compare and deleting its analysis. On the sparse sample plan (6 x 65 points) so
+away, undo of Compare and deleting its analysis; and the T-spline command (off the GUI thread). On the sparse sample plan (6 x 65 points) so
 each step takes a second."""
 from __future__ import annotations
 
@@ -122,6 +122,22 @@ with part("compare, undo, redo, delete"):
     pump()
     result["after_delete"] = looks()
 
+with part("tspline"):
+    ticks = []
+    ticker = QtCore.QTimer()
+    ticker.timeout.connect(lambda: ticks.append(time.time()))
+    ticker.start(100)
+    def tolerance(d):
+        d.setDoubleValue(0.05)
+        d.accept()
+    rep = Report()
+    seen = run("BladeRecon_TSpline", [choose(CONFIG["plan"]), tolerance], timing="T-spline fit (plan, 0.05 mm)")
+    ticker.stop()
+    ts = [o for o in doc.Objects if o.Name.startswith("TSplineSurface")]
+    result["tspline"] = {"dialogs": seen, "objects": len(ts), "faces": len(ts[0].Shape.Faces) if ts else 0,
+                         "report": rep.new(), "undo": list(doc.UndoNames)[:1],
+                         "longest_gap_s": max([b - a for a, b in zip(ticks, ticks[1:])] or [99.0])}
+
 result["report_view"] = report_view()
 with open(os.path.join(OUT, "result.json"), "w") as f:
     json.dump(result, f, indent=1, default=str)
@@ -232,6 +248,15 @@ def test_undo_and_delete_give_back_what_compare_hid(failures):
     deleted = result["after_delete"]
     assert deleted["analyses"] == 0 and deleted["surface_mode"] != "Deviation" and deleted["surface_visible"]
     assert deleted["nominal_visible"] and deleted["points_visible"] and deleted["sections_visible"], deleted
+
+
+def test_tspline_fits_off_the_gui_thread(failures):
+    result, _ = failures
+    _ok(result, "tspline")
+    t = result["tspline"]
+    assert t["dialogs"][0]["class"] == "QFileDialog" and t["dialogs"][1]["class"] == "QInputDialog", t["dialogs"]
+    assert t["objects"] == 1 and t["faces"] > 100 and t["undo"] == ["Fit T-spline"]
+    assert t["longest_gap_s"] < 1.0 and "Traceback" not in t["report"], t
 
 
 def test_no_traceback_anywhere(failures):

@@ -1,9 +1,9 @@
 # SPDX-License-Identifier: LGPL-2.1-or-later
 """Workbench command: fit an adaptive analysis-suitable T-spline (seed 002) to a point file.
 
-Asks for the point file and the tolerance (mm), then adds the sewn Bézier-patch shell
-through ``FreeCADGui.doCommand`` (replayable, undoable). Importing registers
-``BladeRecon_TSpline``.
+Asks for the point file and the tolerance (mm), fits off the GUI thread under FreeCAD's
+progress bar (Esc cancels), then adds the sewn Bézier-patch shell as one undo step.
+Importing registers ``BladeRecon_TSpline``.
 """
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ import FreeCADGui
 
 from bladerecon.core.errors import BladeReconError
 
-from bladerecon.gui import commands
+from bladerecon.gui import actions, commands
 
 __all__ = ["TSplineCommand", "fit_tspline_into_document", "COMMAND_NAME"]
 
@@ -23,17 +23,48 @@ COMMAND_NAME = "BladeRecon_TSpline"
 
 
 def fit_tspline_into_document(path: str, tolerance: float):
-    """Fit ``path`` at ``tolerance`` mm into the active document (a new one if none)."""
+    """Fit ``path`` at ``tolerance`` mm into the active document (a new one if none).
+
+    The fit runs off the GUI thread under FreeCAD's progress bar (Esc cancels); the sewn
+    shell is then added as one undo step. The console shows the line that does the same in
+    the foreground (``make_tspline_feature``).
+    """
+    from bladerecon.core.surface.tspline_job import fit_point_file
+    from bladerecon.fc.tspline_export import patch_faces, sew_patches
+
+    said: list[str] = []
+
+    def work():
+        _, patches, summary = fit_point_file(path, tolerance, say=said.append)
+        return sew_patches(patch_faces(patches)), summary
+
+    try:
+        shell, summary = actions.off_the_gui_thread(f"T-spline fit of {os.path.basename(path)}", work)
+    except actions.Cancelled:
+        FreeCAD.Console.PrintWarning(f"BladeRecon: T-spline fit of {path} cancelled\n")
+        return None
+    except BladeReconError as err:
+        commands.show_error(str(err))
+        return None
+    except Exception as err:
+        FreeCAD.Console.PrintLog(traceback.format_exc())
+        commands.show_error(f"T-spline fit of {path} failed: {type(err).__name__}: {err}")
+        return None
+    for line in said:
+        FreeCAD.Console.PrintMessage(f"BladeRecon: {line}\n")
     doc = FreeCAD.ActiveDocument or FreeCAD.newDocument()
     doc.openTransaction("Fit T-spline")
     try:
-        FreeCADGui.doCommand("import bladerecon.fc.tspline_export")
-        FreeCADGui.doCommand("bladerecon.fc.tspline_export.make_tspline_feature("
-                             f"App.ActiveDocument, {path!r}, {float(tolerance)!r})")
-    except BladeReconError as err:
-        doc.abortTransaction()
-        commands.show_error(str(err))
-        return None
+        FreeCADGui.doCommand(f"# import bladerecon.fc.tspline_export; bladerecon.fc.tspline_export."
+                             f"make_tspline_feature(App.ActiveDocument, {path!r}, {float(tolerance)!r})")
+        obj = doc.addObject("Part::Feature", "TSplineSurface")
+        obj.Shape = shell
+        obj.Label = f"T-spline ({summary['control_points']} control points)"
+        state = "" if summary["converged"] else f"; {summary['stop_reason']}"
+        obj.Label2 = (f"{os.path.basename(path)}: {summary['control_points']} control points, "
+                      f"{summary['refinements']} refinements, max {summary['max']:.4g} mm, "
+                      f"mean {summary['mean']:.4g} mm, {len(shell.Faces)} Bézier faces{state}")
+        doc.recompute()
     except Exception as err:
         doc.abortTransaction()
         FreeCAD.Console.PrintLog(traceback.format_exc())
@@ -42,7 +73,7 @@ def fit_tspline_into_document(path: str, tolerance: float):
     doc.commitTransaction()
     if FreeCADGui.ActiveDocument is not None:
         FreeCADGui.SendMsgToActiveView("ViewFit")
-    return doc
+    return obj
 
 
 class TSplineCommand(commands._Command):
