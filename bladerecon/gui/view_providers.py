@@ -456,6 +456,10 @@ class ViewProviderBladeSurface(_ViewProvider):
         if prop == "DisplayMode" and vobj.DisplayMode not in SURFACE_MODES and not _restoring(vobj):
             show_again(vobj, "HiddenByMode")
 
+    def onDelete(self, vobj: Any, subelements: Any) -> bool:  # noqa: N802
+        show_again(vobj, "HiddenByMode")     # the points and curves under a map show again
+        return True
+
     def deviation_analysis(self) -> Any:
         """The DeviationAnalysis shown by the Deviation mode (``DeviationMap``, else the newest on this surface)."""
         obj = self.Object
