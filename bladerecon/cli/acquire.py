@@ -1,5 +1,11 @@
 # SPDX-License-Identifier: LGPL-2.1-or-later
-"""The ``acquire`` and ``simulate-instrument`` subcommands of ``python3 -m bladerecon``."""
+"""The ``acquire`` and ``simulate-instrument`` subcommands of ``python3 -m bladerecon``.
+
+Outputs (``-o``, ``--clean``, ``--expected``) are all or nothing
+(:class:`bladerecon.core.io.outputs.Outputs`); the raw journal and ``--sent`` are written as
+the bytes arrive and kept on failure (that is what they are for), but their targets are
+checked before the port is opened.
+"""
 from __future__ import annotations
 
 import argparse
@@ -10,6 +16,8 @@ import time
 
 from bladerecon.acquire.reader import default_journal
 from bladerecon.core.errors import BladeReconError
+from bladerecon.core.io.outputs import (Outputs, check_file_target, check_input, count, finite, fraction,
+                                        one_line_errors, os_error, positive)
 
 __all__ = ["add_parser", "run_acquire", "run_simulate"]
 
@@ -21,15 +29,19 @@ def add_parser(sub) -> None:
     src = a.add_mutually_exclusive_group(required=True)
     src.add_argument("--port", help="anything pyserial opens: /dev/ttyUSB0, a pty, loop://, socket://host:port")
     src.add_argument("--replay", metavar="JOURNAL", help="parse a raw journal of an earlier capture instead")
-    a.add_argument("--baud", type=int, default=115200, help="baud rate (default 115200, 8N1)")
+    a.add_argument("--baud", type=count(1, 100_000_000), default=115200, help="baud rate (default 115200, 8N1)")
     a.add_argument("--calibration", metavar="FILE", help="laser machine calibration JSON (default: beam -X, table axis Z)")
-    a.add_argument("-o", "--output", required=True, help="points CSV to write (section,x,y,z; mm); atomic")
+    a.add_argument("-o", "--output", required=True,
+                   help="points CSV to write (section,x,y,z; mm); put in place only when the capture succeeded")
     a.add_argument("--journal", metavar="FILE",
                    help="raw journal (default OUTPUT-stem.<UTC time>.journal); never overwritten")
-    a.add_argument("--timeout", type=float, default=2.0, help="s of silence before START is sent again (default 2)")
-    a.add_argument("--give-up", type=float, default=30.0, help="s without data before the capture fails (default 30)")
+    a.add_argument("--timeout", type=positive(3600.0, "s"), default=2.0,
+                   help="s of silence before START is sent again (default 2)")
+    a.add_argument("--give-up", type=positive(7 * 86400.0, "s"), default=30.0,
+                   help="s without data before the capture fails (default 30)")
     a.add_argument("--json", action="store_true", help="print the JSON summary on stdout")
     a.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    one_line_errors(a)
     a.set_defaults(run=run_acquire)
 
     s = sub.add_parser("simulate-instrument", help="play a measurement of the sample blade on a serial line",
@@ -38,23 +50,24 @@ def add_parser(sub) -> None:
     where = s.add_mutually_exclusive_group()
     where.add_argument("--port", help="write to this existing port (disconnects become pauses)")
     where.add_argument("--link", help="create a pty and publish it under this path (a symlink; default: print the pty)")
-    s.add_argument("--baud", type=int, default=115200)
+    s.add_argument("--baud", type=count(1, 100_000_000), default=115200)
     s.add_argument("--calibration", metavar="FILE", help="calibration JSON used to make the readings")
-    s.add_argument("--sections", type=int, default=6)
-    s.add_argument("--points", type=int, default=2000, help="points per section")
-    s.add_argument("--noise", type=float, default=0.002, help="sigma of the point noise, mm (default 0.002)")
-    s.add_argument("--seed", type=int, default=0)
-    s.add_argument("--bad-checksum", type=float, default=0.0, help="fraction of point records with a wrong CK")
-    s.add_argument("--garbled", type=float, default=0.0, help="fraction of point records garbled")
-    s.add_argument("--out-of-range", type=float, default=0.0, help="fraction of extra readings with an empty D")
-    s.add_argument("--disconnects", type=int, default=0, help="number of link drops (a record cut in half)")
-    s.add_argument("--drop-block", type=int, default=0, help="records never sent in one block (a seq gap)")
+    s.add_argument("--sections", type=count(2, 1000), default=6)
+    s.add_argument("--points", type=count(20, 1_000_000), default=2000, help="points per section")
+    s.add_argument("--noise", type=finite(0.0, 1.0, "mm"), default=0.002, help="sigma of the point noise, mm (default 0.002)")
+    s.add_argument("--seed", type=count(0, 2 ** 32 - 1), default=0)
+    s.add_argument("--bad-checksum", type=fraction, default=0.0, help="fraction of point records with a wrong CK")
+    s.add_argument("--garbled", type=fraction, default=0.0, help="fraction of point records garbled")
+    s.add_argument("--out-of-range", type=fraction, default=0.0, help="fraction of extra readings with an empty D")
+    s.add_argument("--disconnects", type=count(0, 10_000), default=0, help="number of link drops (a record cut in half)")
+    s.add_argument("--drop-block", type=count(0, 10_000_000), default=0, help="records never sent in one block (a seq gap)")
     s.add_argument("--direct", action="store_true", help="send $Q part-coordinate records (a CMM)")
-    s.add_argument("--rate", type=float, default=None,
+    s.add_argument("--rate", type=finite(0.0, None, "records/s"), default=None,
                    help="records/s (default: what --baud carries, ~10 bits per byte; 0 = as fast as possible)")
     s.add_argument("--sent", metavar="FILE", help="also write every byte sent to FILE")
     s.add_argument("--clean", metavar="FILE", help="write the points a perfect capture keeps (CSV)")
     s.add_argument("--expected", metavar="FILE", help="write the counters a perfect reader reports (JSON)")
+    one_line_errors(s)
     s.set_defaults(run=run_simulate)
 
 
@@ -66,14 +79,23 @@ def _say(quiet: bool):
 
 
 def run_acquire(args: argparse.Namespace) -> dict:
+    """Run the capture; the points CSV is put in place only when the capture succeeded."""
+    say = _say(args.quiet)
+    check_input(args.replay, "--replay")
+    check_input(args.calibration, "--calibration")
+    with Outputs(inputs=(args.replay, args.calibration)) as outs:
+        temp = outs.file(args.output, "--output")
+        summary, n_points, n_sections = _capture(args, say, temp)
+        outs.commit()
+    say(f"wrote {n_points} points in {n_sections} sections to {args.output}")
+    return summary
+
+
+def _capture(args, say, temp: str):
     from bladerecon.core.io.instrument import Calibration, load_calibration
     from bladerecon.core.io.readers import write_points_csv
     from bladerecon.acquire.reader import InstrumentReader, replay
 
-    say = _say(args.quiet)
-    parent = os.path.dirname(os.path.abspath(args.output))
-    if not os.path.isdir(parent):
-        raise BladeReconError(f"--output {args.output}: folder {parent} does not exist; create it first")
     cal = load_calibration(args.calibration) if args.calibration else Calibration()
     t0 = time.monotonic()
     if args.replay:
@@ -84,6 +106,10 @@ def run_acquire(args: argparse.Namespace) -> dict:
         journal = args.journal or default_journal(args.output)
         if os.path.abspath(journal) == os.path.abspath(args.output):
             raise BladeReconError(f"--journal {journal} is the output file; choose another name")
+        if os.path.lexists(journal):
+            raise BladeReconError(f"journal {journal}: already exists; choose another name "
+                                  "(journals are never overwritten) or replay it with --replay")
+        check_file_target(journal, "--journal", inputs=(args.calibration,))
 
         def progress(c: dict) -> None:
             say(f"{c['points']} points, {c['sections']} sections, errors: {c['bad_checksum']} checksum, "
@@ -92,7 +118,10 @@ def run_acquire(args: argparse.Namespace) -> dict:
         say(f"reading {args.port} at {args.baud} baud; journal {journal}")
         reader = InstrumentReader(args.port, args.baud, cal, journal, args.timeout, args.give_up,
                                   None if args.quiet else progress)
-        acq = reader.run()
+        try:
+            acq = reader.run()
+        except OSError as err:      # the journal's disk: the journal is kept, as far as it got
+            raise os_error(err, journal) from None
         seconds = reader.seconds
     summary = acq.summary()
     summary["seconds"] = round(seconds, 3)
@@ -102,15 +131,25 @@ def run_acquire(args: argparse.Namespace) -> dict:
     if len(points) == 0:
         raise BladeReconError(f"{args.port or args.replay}: no valid point arrived; nothing written "
                               f"(journal {journal} kept)")
-    write_points_csv(args.output, points, section, acq.section_names)
+    write_points_csv(temp, points, section, acq.section_names)
     summary["output"] = args.output
     summary["journal"] = journal
     summary["complete"] = bool(acq.done)
-    say(f"wrote {len(points)} points in {len(acq.section_names)} sections to {args.output}")
-    return summary
+    return summary, len(points), len(acq.section_names)
 
 
 def run_simulate(args: argparse.Namespace) -> dict:
+    check_input(args.calibration, "--calibration")
+    if args.sent:
+        check_file_target(args.sent, "--sent", inputs=(args.calibration,))
+    with Outputs(inputs=(args.calibration,)) as outs:
+        clean = outs.file(args.clean, "--clean")
+        expected = outs.file(args.expected, "--expected")
+        summary = _simulate(args, clean, expected, outs)
+    return summary
+
+
+def _simulate(args, clean, expected, outs: Outputs) -> dict:
     from bladerecon.core.io.instrument import Calibration, load_calibration
     from bladerecon.core.io.readers import write_points_csv
     from bladerecon.acquire.simulator import Faults, PortLink, PtyLink, play, sample_plan
@@ -119,11 +158,12 @@ def run_simulate(args: argparse.Namespace) -> dict:
     cal = load_calibration(args.calibration) if args.calibration else Calibration()
     faults = Faults(args.bad_checksum, args.garbled, args.out_of_range, args.disconnects, args.drop_block, args.seed)
     plan = sample_plan(args.sections, args.points, args.noise, args.seed, cal, faults, args.direct)
-    if args.clean:
-        write_points_csv(args.clean, plan.good_points, plan.good_sections, plan.names)
-    if args.expected:
-        with open(args.expected, "w") as f:
+    if clean:
+        write_points_csv(clean, plan.good_points, plan.good_sections, plan.names)
+    if expected:
+        with open(expected, "w") as f:
             json.dump(plan.expected, f)
+    outs.commit()     # the reference files are complete: a reader may start comparing
     if args.rate is None:
         mean_len = sum(map(len, plan.lines)) / len(plan.lines)
         rate = args.baud / 10.0 / mean_len

@@ -3,7 +3,9 @@
 
 Issue 4 §5. Parser and runner of the subcommand (``cli.py`` only wires them in). Lengths in
 mm, angles in degrees. Errors a user can cause raise :class:`BladeReconError` (one line,
-exit status 2); the CSV and the report folder are written atomically.
+exit status 2). Outputs are all or nothing (:class:`bladerecon.core.io.outputs.Outputs`):
+checked before any work, written beside their targets and put in place only when the whole
+command succeeded.
 """
 from __future__ import annotations
 
@@ -15,6 +17,7 @@ import time
 import numpy as np
 
 from bladerecon.core.errors import BladeReconError
+from bladerecon.core.io.outputs import Outputs, check_coordinates, check_input, one_line_errors, positive
 
 __all__ = ["add_parser", "run_deviation"]
 
@@ -31,15 +34,19 @@ def add_parser(sub) -> None:
     d.add_argument("--robust", action="store_true",
                    help="with --align: a robust best fit (Tukey biweight) that a worn or damaged zone does not "
                         "pull; the points it weighted out are counted in the summary")
-    d.add_argument("--tolerance", type=float, default=0.03, metavar="MM",
+    d.add_argument("--tolerance", type=positive(), default=0.03, metavar="MM",
                    help="profile tolerance ±MM for within_tolerance_pct (default 0.03)")
     d.add_argument("--csv", metavar="FILE", help="write x,y,z,deviation,nx,ny,nz,face per point")
     d.add_argument("--report", metavar="DIR", help="write report.html with plots and deviations.csv into DIR")
     d.add_argument("--aligned", metavar="FILE",
                    help="with --align: write the measured input moved by the best fit: a STEP of the moved "
                         "surface when MEASURED is a surface, else a section,x,y,z points CSV")
+    d.add_argument("--force", action="store_true",
+                   help="write the report into an existing folder that holds files (files of the report's names "
+                        "are replaced, others kept); without it such a folder is refused")
     d.add_argument("--json", action="store_true", help="print one JSON summary object to stdout")
     d.add_argument("--quiet", action="store_true", help="no progress messages on stderr")
+    one_line_errors(d)
     d.set_defaults(run=run_deviation)
 
 
@@ -53,30 +60,51 @@ def _check_outputs(args) -> None:
         raise BladeReconError("--aligned writes the best-fitted input: add --align rigid|translate|rotate-z")
     if args.robust and args.align == "none":
         raise BladeReconError("--robust is a kind of best fit: add --align rigid|translate|rotate-z")
-    for path, what in ((args.csv, "--csv"), (args.report, "--report"), (args.aligned, "--aligned")):
-        if path:
-            parent = os.path.dirname(os.path.abspath(path)) or "."
-            if not os.path.isdir(parent):
-                raise BladeReconError(f"{what} {path}: folder {parent} does not exist; create it first")
-            if os.path.abspath(path) in (os.path.abspath(args.measured), os.path.abspath(args.nominal)):
-                raise BladeReconError(f"{what} {path} is an input file: choose another name (inputs are never overwritten)")
     if not args.tolerance > 0:
         raise BladeReconError(f"--tolerance {args.tolerance}: give a positive tolerance in mm")
+    check_input(args.measured, "MEASURED")
+    check_input(args.nominal, "--nominal")
 
 
 def run_deviation(args: argparse.Namespace) -> dict:
-    """Run the subcommand; returns the JSON summary."""
-    t0 = time.perf_counter()
+    """Run the subcommand; returns the JSON summary. Nothing is written unless all of it succeeds."""
     _check_outputs(args)
-    from bladerecon.fc.deviation import load_nominal, measure_deviation, read_measured, write_deviation_csv
+    with Outputs(inputs=(args.measured, args.nominal)) as outs:
+        temps = {"csv": outs.file(args.csv, "--csv"), "aligned": outs.file(args.aligned, "--aligned"),
+                 "report": outs.folder(args.report, "--report", force=args.force)}
+        summary = _run(args, temps)
+        outs.commit()
+    for what in ("csv", "aligned"):
+        if getattr(args, what):
+            _say(args, f"wrote {getattr(args, what)}")
+    if args.report:
+        _say(args, f"report in {args.report}")
+    return summary
+
+
+def _read_measured(path: str):
+    """Points, section index per point (None for a cloud) and names; coordinates checked."""
+    from bladerecon.core.io.readers import read_points
+
+    ps = read_points(path, require_sections=False)
+    check_coordinates(ps.points, ps.line, path)
+    if not ps.structured:
+        return np.asarray(ps.points, float), None, ()
+    return np.asarray(ps.points, float), np.asarray(ps.section), ps.section_names
+
+
+def _run(args: argparse.Namespace, temps: dict) -> dict:
+    t0 = time.perf_counter()
+    from bladerecon.fc.deviation import load_nominal, measure_deviation, write_deviation_csv
 
     _say(args, f"reading {args.measured}")
     surface = None
     if os.path.splitext(args.measured)[1].lower() in (".step", ".stp", ".iges", ".igs", ".brep", ".brp", ".fcstd"):
         points, surface = _surface_points(args.measured)
+        check_coordinates(points, None, args.measured)
         section, names = None, ()
     else:
-        points, section, names = read_measured(args.measured)
+        points, section, names = _read_measured(args.measured)
     _say(args, f"{len(points)} points; reading nominal {args.nominal}")
     nominal = load_nominal(args.nominal)
     t_read = time.perf_counter()
@@ -96,11 +124,10 @@ def run_deviation(args: argparse.Namespace) -> dict:
         "units": "mm", "measured": args.measured,
     }
     if args.csv:
-        write_deviation_csv(args.csv, res.points, res.deviation)
-        _say(args, f"wrote {args.csv}")
+        write_deviation_csv(temps["csv"], res.points, res.deviation)
     if args.aligned:
-        summary["aligned"] = _write_aligned(args.aligned, res, surface, section, names)
-        _say(args, f"wrote {args.aligned}")
+        _write_aligned(temps["aligned"], res, surface, section, names)
+        summary["aligned"] = args.aligned
     t_done = time.perf_counter()
     summary["seconds"] = {"read": t_read - t0, "align": res.seconds["align"], "measure": res.seconds["measure"],
                           "total": t_done - t0}
@@ -108,10 +135,9 @@ def run_deviation(args: argparse.Namespace) -> dict:
         summary["sections"] = _section_table(args, res, nominal)
     if args.report:
         from bladerecon.report.deviation import write_deviation_report
-        write_deviation_report(args.report, summary, res, nominal, section, names, surface)
+        write_deviation_report(temps["report"], summary, res, nominal, section, names, surface)
         summary["seconds"]["report"] = time.perf_counter() - t_done
         summary["seconds"]["total"] = time.perf_counter() - t0
-        _say(args, f"report in {args.report}")
     return summary
 
 
@@ -139,7 +165,7 @@ def _section_table(args, res, nominal) -> dict:
 
 def _write_aligned(path: str, res, surface, section, names) -> str:
     """The measured input moved by the alignment: the surface exactly (its poles moved), or
-    the points with their section labels. Written atomically."""
+    the points with their section labels, written to ``path`` (the command's temporary)."""
     if surface is not None:
         from bladerecon.core.analysis.alignment import transform_surface
         from bladerecon.fc.convert import make_face

@@ -18,6 +18,8 @@ import sys
 import numpy as np
 
 from bladerecon.core.errors import BladeReconError
+from bladerecon.core.io.outputs import (Outputs, check_coordinates, check_input, check_samples, one_line_errors,
+                                        positive, shown)
 
 __all__ = ["add_parser", "run_plan"]
 
@@ -32,10 +34,11 @@ def add_parser(sub) -> None:
     p.add_argument("nominal", help="nominal blade (STEP/IGES/BREP/FCStd) or a dense section file")
     p.add_argument("--heights", default="", metavar="Z1,Z2,...", help="section heights along --axis (mm)")
     p.add_argument("--axis", default="0,0,1", metavar="X,Y,Z", help="span axis (default 0,0,1)")
-    p.add_argument("--tolerance", type=float, default=0.05, metavar="MM", help="compression tolerance (default 0.05)")
-    p.add_argument("--step", type=float, default=0.1, metavar="MM",
+    p.add_argument("--tolerance", type=positive(), default=0.05, metavar="MM",
+                   help="compression tolerance (default 0.05)")
+    p.add_argument("--step", type=positive(), default=0.1, metavar="MM",
                    help="point spacing of the dense nominal cut (default 0.1, the paper's measurement step)")
-    p.add_argument("-o", "--output", help="plan CSV to write (section,x,y,z; mm), atomically")
+    p.add_argument("-o", "--output", help="plan CSV to write (section,x,y,z; mm), only when the whole command succeeds")
     p.add_argument("--check", action="store_true",
                    help="reconstruct the surface from the plan and measure it against the (shape) nominal")
     p.add_argument("--surface-within", action="store_true",
@@ -43,6 +46,7 @@ def add_parser(sub) -> None:
                         "is within --tolerance of the (shape) nominal between the sections too (implies --check)")
     p.add_argument("--json", action="store_true", help="print the JSON summary on stdout")
     p.add_argument("--quiet", action="store_true", help="no progress messages on stderr")
+    one_line_errors(p)
     p.set_defaults(run=run_plan)
 
 
@@ -53,20 +57,34 @@ def _say(args, msg: str) -> None:
 
 def _numbers(text: str, what: str) -> np.ndarray:
     try:
-        return np.array([float(v) for v in text.split(",") if v.strip()], float)
+        values = np.array([float(v) for v in text.split(",") if v.strip()], float)
     except ValueError:
-        raise BladeReconError(f"{what} {text!r}: give numbers separated by commas") from None
+        raise BladeReconError(f"{what} '{shown(text)}': give numbers separated by commas") from None
+    if not np.isfinite(values).all():
+        raise BladeReconError(f"{what} '{shown(text)}': give finite numbers separated by commas")
+    return values
 
 
 def _dense_sections(args, axis: np.ndarray, heights: np.ndarray) -> tuple[list[np.ndarray], np.ndarray]:
     if os.path.splitext(args.nominal)[1].lower() in SHAPE_SUFFIXES:
         if not heights.size:
             raise BladeReconError("a shape nominal needs --heights z1,z2,... (mm along --axis) to cut sections")
-        from bladerecon.fc.slicing import cut_at_heights
-        return cut_at_heights(args.nominal, heights, axis, args.step), heights
+        from bladerecon.fc.export import read_shape
+        from bladerecon.fc.slicing import cut_sections
+        shape = read_shape(args.nominal)
+        bb = shape.BoundBox
+        centre = np.array([bb.Center.x, bb.Center.y, bb.Center.z])
+        size = np.array([bb.XLength, bb.YLength, bb.ZLength])
+        # a section lies in the box across the axis: its length is about the box's perimeter there
+        across = np.sqrt(np.maximum(size ** 2 - (size * axis) ** 2, 0.0))
+        check_samples("--step", args.step, 2.0 * float(across.sum()) * len(heights), what="cutting the nominal")
+        origins = np.array([centre + (z - centre @ axis) * axis for z in heights])
+        return cut_sections(args.nominal, origins, np.tile(axis, (len(origins), 1)), args.step, shape=shape), heights
     from bladerecon.core.io.readers import read_points
     from bladerecon.core.sections.ordering import build_sections
-    ss = build_sections(read_points(args.nominal))
+    ps = read_points(args.nominal)
+    check_coordinates(ps.points, ps.line, args.nominal)
+    ss = build_sections(ps)
     pts = [s.points for s in ss.sections]
     h = np.array([p.mean(axis=0) @ axis for p in pts])
     if heights.size:
@@ -76,19 +94,25 @@ def _dense_sections(args, axis: np.ndarray, heights: np.ndarray) -> tuple[list[n
 
 
 def run_plan(args: argparse.Namespace) -> dict:
-    from bladerecon.core.sections.plan import plan_sections
-
+    """Run the subcommand; the plan CSV is put in place only when all of it succeeded."""
     axis = _numbers(args.axis, "--axis")
-    if axis.size != 3 or not np.linalg.norm(axis) > 0:
-        raise BladeReconError(f"--axis {args.axis}: give a direction x,y,z")
+    if axis.size != 3 or not np.linalg.norm(axis) > 0 or not np.isfinite(np.linalg.norm(axis)):
+        raise BladeReconError(f"--axis {shown(args.axis)}: give a direction x,y,z")
     axis = axis / np.linalg.norm(axis)
     heights = _numbers(args.heights, "--heights")
+    check_input(args.nominal, "NOMINAL")
+    with Outputs(inputs=(args.nominal,)) as outs:
+        temp = outs.file(args.output, "--output")
+        summary = _run(args, axis, heights, temp)
+        outs.commit()
     if args.output:
-        parent = os.path.dirname(os.path.abspath(args.output)) or "."
-        if not os.path.isdir(parent):
-            raise BladeReconError(f"--output {args.output}: folder {parent} does not exist; create it first")
-        if os.path.abspath(args.output) == os.path.abspath(args.nominal):
-            raise BladeReconError(f"--output {args.output} is the input file: choose another name")
+        _say(args, f"wrote {args.output}")
+    return summary
+
+
+def _run(args, axis: np.ndarray, heights: np.ndarray, temp: str | None) -> dict:
+    from bladerecon.core.sections.plan import plan_sections
+
     _say(args, f"cutting {args.nominal}")
     dense, h = _dense_sections(args, axis, heights)
     _say(args, f"{len(dense)} sections, {sum(len(p) for p in dense)} dense points; planning at ±{args.tolerance} mm")
@@ -127,9 +151,8 @@ def run_plan(args: argparse.Namespace) -> dict:
         from bladerecon.core.io.readers import write_points_csv
         pts = np.concatenate([p.points for p in plans])
         sec = np.concatenate([np.full(len(p.indices), p.index) for p in plans])
-        write_points_csv(args.output, pts, sec)
+        write_points_csv(temp, pts, sec)
         summary["output"] = args.output
-        _say(args, f"wrote {args.output}")
     if args.check or args.surface_within:
         summary["check"] = _check(args, plans, axis)
     _say(args, f"kept {kept} of {total} points ({100 * summary['compression_rate']:.1f} % fewer), "

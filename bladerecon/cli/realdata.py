@@ -20,11 +20,15 @@ import os
 import numpy as np
 
 from bladerecon.core.errors import BladeReconError
+from bladerecon.core.io.outputs import check_coordinates, check_input, count, one_line_errors, positive, shown
 
 __all__ = ["add_options", "read_input", "apply_fairing", "write_fairing_csv", "fairness_summary"]
 
 
 def add_options(r: argparse.ArgumentParser) -> None:
+    """The real-data options, checked as the command line is parsed (finite, sign, range); the
+    parser then reports a bad command line in one ``bladerecon: error:`` line."""
+    one_line_errors(r)
     g = r.add_argument_group("real data (unordered clouds, bad points, non-grid rows)")
     g.add_argument("--poles", metavar="NUxNV",
                    help="with --method approximate: seed 003 non-grid fit with this many poles around x along "
@@ -32,7 +36,7 @@ def add_options(r: argparse.ArgumentParser) -> None:
     g.add_argument("--surface", choices=("bspline", "local-bicubic"), default="bspline",
                    help="bspline (default): one C2 cubic B-spline face; local-bicubic: seed 004's local bicubic "
                         "interpolation, C1 Bézier patches, exported as a sewn shell")
-    g.add_argument("--patches-around", type=int, default=160, metavar="N",
+    g.add_argument("--patches-around", type=count(8, 100_000), default=160, metavar="N",
                    help="with --surface local-bicubic: grid points (patches) around each section (default 160)")
     g.add_argument("--fair-surface", action="store_true",
                    help="with --surface local-bicubic: alternate fairing of the u and v mesh curves of the grid "
@@ -40,31 +44,34 @@ def add_options(r: argparse.ArgumentParser) -> None:
     g.add_argument("--fair", action="store_true",
                    help="replace bad points (farther than --fair-threshold from a fair fit) of every section by "
                         "points on an auxiliary cubic (seed 001 §1.1); all are reported")
-    g.add_argument("--fair-threshold", type=float, metavar="MM", default=None,
+    g.add_argument("--fair-threshold", type=positive(), metavar="MM", default=None,
                    help="with --fair: distance from the fair fit that makes a point bad (default 0.003)")
-    g.add_argument("--fair-limit", type=float, metavar="MM", default=None,
+    g.add_argument("--fair-limit", type=positive(), metavar="MM", default=None,
                    help="with --fair: refuse when a replacement would move a point farther (default 0.5)")
-    g.add_argument("--slice", type=int, metavar="N", help="input is an unordered cloud: N planes along --slice-axis")
+    g.add_argument("--slice", type=count(2, 100_000), metavar="N", help="input is an unordered cloud: N planes along --slice-axis")
     g.add_argument("--slice-at", metavar="Z1,Z2,..", help="unordered cloud: planes at these heights (mm)")
     g.add_argument("--slice-radii", metavar="R1,R2,..",
                    help="unordered cloud: cylinders of these radii (mm) about --slice-axis through the origin")
     g.add_argument("--slice-axis", choices=("x", "y", "z"), default="z", help="plane normal / rotor axis (default z)")
-    g.add_argument("--slab", type=float, metavar="MM",
+    g.add_argument("--slab", type=positive(), metavar="MM",
                    help="width of each slice's slab (default a quarter of the smallest gap between slices)")
     g.add_argument("--slab-keep", action="store_true",
                    help="keep slab points where they are instead of moving them onto the cutting plane/cylinder "
                         "(for surface-mesh clouds whose nodes lie in rows: no slide along a twisted surface)")
-    g.add_argument("--cloud-scale", type=float, default=1.0, metavar="F",
+    g.add_argument("--cloud-scale", type=positive(1e9, ""), default=1.0, metavar="F",
                    help="multiply the cloud's coordinates by F (1000 for a file in metres)")
 
 
-def _floats(text: str, what: str) -> np.ndarray:
+def _floats(text: str, what: str, positive_only: bool = False) -> np.ndarray:
     try:
         vals = np.array([float(x) for x in text.split(",") if x.strip()])
     except ValueError:
-        raise BladeReconError(f"{what} {text!r}: give comma-separated numbers in mm, e.g. 10,20,30") from None
+        raise BladeReconError(f"{what} '{shown(text)}': give comma-separated numbers in mm, e.g. 10,20,30") from None
+    if not np.isfinite(vals).all() or (positive_only and not (vals > 0).all()):
+        kind = "positive" if positive_only else "finite"
+        raise BladeReconError(f"{what} '{shown(text)}': give {kind} numbers in mm, e.g. 10,20,30")
     if vals.size < 2:
-        raise BladeReconError(f"{what} {text!r}: need at least 2 slices for a surface")
+        raise BladeReconError(f"{what} '{shown(text)}': need at least 2 slices for a surface")
     return vals
 
 
@@ -106,17 +113,20 @@ def read_input(args: argparse.Namespace):
     """
     from bladerecon.core.io.readers import read_points
     from bladerecon.core.sections import slicing
+    check_input(args.input, "INPUT")
     if not slicing_requested(args):
-        return read_points(args.input), None
+        ps = read_points(args.input)
+        check_coordinates(ps.points, ps.line, args.input)
+        return ps, None
     axis = np.eye(3)["xyz".index(args.slice_axis)]
-    P, lines = slicing.read_cloud(args.input, args.cloud_scale)
-    if args.slice_radii is not None:
-        radii = _floats(args.slice_radii, "--slice-radii")
+    radii = _floats(args.slice_radii, "--slice-radii", positive_only=True) if args.slice_radii is not None else None
+    at = _floats(args.slice_at, "--slice-at") if args.slice_at is not None else None
+    P, lines = _read_cloud(args.input, args.cloud_scale)
+    if radii is not None:
         slices = slicing.slice_cylinders(P, radii, axis, slab=args.slab, project=not args.slab_keep)
         kind = "cylinders"
     else:
-        pos = (_floats(args.slice_at, "--slice-at") if args.slice_at is not None
-               else slicing.plane_positions(P, axis, args.slice))
+        pos = at if at is not None else slicing.plane_positions(P, axis, args.slice)
         slices = slicing.slice_planes(P, pos, axis, slab=args.slab, project=not args.slab_keep)
         kind = "planes"
     ps = slicing.slices_to_pointset(slices, lines, args.input)
@@ -127,6 +137,26 @@ def read_input(args: argparse.Namespace):
                "slab_mm": args.slab if args.slab is not None else slicing._default_slab(
                    [s.position for s in slices])}
     return ps, summary
+
+
+def _read_cloud(path: str, scale: float):
+    """The cloud (mm, after ``--cloud-scale``): text only, file bytes in messages escaped,
+    coordinates within ±1 km."""
+    from bladerecon.core.sections import slicing
+
+    try:
+        P, lines = slicing.read_cloud(path, scale)
+    except UnicodeDecodeError as err:
+        raise BladeReconError(f"{shown(path, 200)}: not a text point file (byte 0x{err.object[err.start]:02x} at "
+                              f"offset {err.start} is not UTF-8): give 'x y z' text lines") from None
+    except BladeReconError as err:
+        raise BladeReconError(shown(str(err), 400)) from None
+    try:
+        check_coordinates(P, lines, path)
+    except BladeReconError as err:
+        scaled = f" (coordinates multiplied by --cloud-scale {scale:g})" if scale != 1.0 else ""
+        raise BladeReconError(f"{err}{scaled}") from None
+    return P, lines
 
 
 def _file_index(lines: np.ndarray) -> np.ndarray:

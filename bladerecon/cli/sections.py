@@ -17,6 +17,8 @@ import sys
 import numpy as np
 
 from bladerecon.core.errors import BladeReconError
+from bladerecon.core.io.outputs import (Outputs, check_coordinates, check_input, check_samples, finite,
+                                        one_line_errors, positive, shown)
 
 __all__ = ["add_parser", "run_sections"]
 
@@ -25,9 +27,12 @@ SHAPE_SUFFIXES = (".step", ".stp", ".iges", ".igs", ".brep", ".brp", ".fcstd")
 
 def _floats(text: str, what: str) -> tuple[float, ...]:
     try:
-        return tuple(float(v) for v in text.split(",") if v.strip())
+        values = tuple(float(v) for v in text.split(",") if v.strip())
     except ValueError:
-        raise BladeReconError(f"{what} {text!r}: give numbers separated by commas, e.g. 1,2,5") from None
+        raise BladeReconError(f"{what} '{shown(text)}': give numbers separated by commas, e.g. 1,2,5") from None
+    if not all(np.isfinite(v) and v > 0 for v in values):
+        raise BladeReconError(f"{what} '{shown(text)}': give positive distances in mm, e.g. 1,2,5")
+    return values
 
 
 def add_parser(sub) -> None:
@@ -38,15 +43,24 @@ def add_parser(sub) -> None:
     p.add_argument("--nominal", help="nominal: STEP/IGES/BREP/FCStd (cut in each section's plane) or a section file")
     p.add_argument("--plots", metavar="DIR", help="write section_NN.png per section (segmentation coloured)")
     p.add_argument("--offsets", default="", metavar="MM,...", help="thickness at these distances from LE and TE")
-    p.add_argument("--beta1", type=float, help="inlet flow angle (deg from axial) for the throat point (eq. 5)")
-    p.add_argument("--beta2", type=float, help="outlet flow angle (deg from axial) for the throat point (eq. 5)")
-    p.add_argument("--lift", type=float, default=1.0, help="tangential lift coefficient C_L of eq. 5 (default 1.0)")
-    p.add_argument("--max-gap", type=float, metavar="MM", help="largest gap between points (default 15 %% of the section)")
-    p.add_argument("--step", type=float, default=0.05, help="point spacing of the nominal cut (mm, default 0.05)")
+    p.add_argument("--beta1", type=finite(-89.9, 89.9, "degrees"),
+                   help="inlet flow angle (deg from axial) for the throat point (eq. 5)")
+    p.add_argument("--beta2", type=finite(-89.9, 89.9, "degrees"),
+                   help="outlet flow angle (deg from axial) for the throat point (eq. 5)")
+    p.add_argument("--lift", type=positive(unit=""), default=1.0,
+                   help="tangential lift coefficient C_L of eq. 5 (default 1.0)")
+    p.add_argument("--max-gap", type=positive(), metavar="MM",
+                   help="largest gap between points (default 15 %% of the section)")
+    p.add_argument("--step", type=positive(), default=0.05, metavar="MM",
+                   help="point spacing of the nominal cut (mm, default 0.05)")
     p.add_argument("--lenient", action="store_true",
                    help="report a radius as null (with a warning) instead of stopping when an edge has too few points")
+    p.add_argument("--force", action="store_true",
+                   help="write the plots into an existing folder that holds files (files of the same names are "
+                        "replaced, others kept); without it such a folder is refused")
     p.add_argument("--json", action="store_true", help="print the list of sections as JSON on stdout")
     p.add_argument("--quiet", action="store_true", help="no progress messages on stderr")
+    one_line_errors(p)
     p.set_defaults(run=run_sections)
 
 
@@ -58,7 +72,9 @@ def _say(args, msg: str) -> None:
 def _read_sections(path: str):
     from bladerecon.core.io.readers import read_points
     from bladerecon.core.sections.ordering import build_sections
-    ss = build_sections(read_points(path))
+    ps = read_points(path)
+    check_coordinates(ps.points, ps.line, path)
+    ss = build_sections(ps)
     return [s.points for s in ss.sections], ss.span_axis, not ss.sections[0].reordered
 
 
@@ -74,6 +90,10 @@ def _throat(args):
 def _nominal_sections(args, segs, span_axis) -> list[np.ndarray]:
     if os.path.splitext(args.nominal)[1].lower() in SHAPE_SUFFIXES:
         from bladerecon.fc.slicing import cut_sections
+        # the nominal's sections are about as long as the measured ones: bound the cut before OCC allocates it
+        length = 1.5 * sum(float(np.linalg.norm(np.diff(np.vstack([s.points2d, s.points2d[:1]]), axis=0), axis=1).sum())
+                           for s in segs)
+        check_samples("--step", args.step, length, what="cutting the nominal")
         origins = np.array([s.frame.origin for s in segs])
         normals = np.array([s.frame.normal for s in segs])
         return cut_sections(args.nominal, origins, normals, args.step)
@@ -86,12 +106,26 @@ def _nominal_sections(args, segs, span_axis) -> list[np.ndarray]:
 
 
 def run_sections(args: argparse.Namespace) -> list:
+    """Run the subcommand; the plots are put in place only when every section succeeded."""
+    offsets = _floats(args.offsets, "--offsets")
+    throat = _throat(args)
+    check_input(args.input, "INPUT")
+    check_input(args.nominal, "--nominal")
+    with Outputs(inputs=(args.input, args.nominal)) as outs:
+        plots = outs.folder(args.plots, "--plots", force=args.force)
+        out = _run(args, offsets, throat, plots)
+        outs.commit()
+    if args.plots:
+        _say(args, f"plots in {args.plots}")
+    for o in out:
+        _say(args, f"section {o['index']}: chord {o['chord']:.3f} stagger {o['stagger_deg']:.2f}° "
+                   f"t_max {o['max_thickness']:.3f} r_LE {_fmt(o['le_radius'])} r_TE {_fmt(o['te_radius'])}")
+    return out
+
+
+def _run(args, offsets, throat, plots) -> list:
     from bladerecon.core.sections.parameters import compare_with_nominal, measure_section, segment_sections
 
-    offsets = _floats(args.offsets, "--offsets")
-    if args.plots and not os.path.isdir(os.path.dirname(os.path.abspath(args.plots)) or "."):
-        raise BladeReconError(f"--plots {args.plots}: the parent folder does not exist; create it first")
-    throat = _throat(args)
     _say(args, f"reading {args.input}")
     pts, axis, measured_start = _read_sections(args.input)
     segs = segment_sections(pts, axis, measured_start, throat=throat, max_gap=args.max_gap)
@@ -111,15 +145,10 @@ def run_sections(args: argparse.Namespace) -> list:
         out = [compare_with_nominal(o, n.as_dict()) for o, n in zip(out, nparams)]
     else:
         nsegs = [None] * len(segs)
-    if args.plots:
-        os.makedirs(args.plots, exist_ok=True)
+    if plots:
         from bladerecon.report.section_plots import plot_section
         for s, p, ns in zip(segs, params, nsegs):
-            plot_section(os.path.join(args.plots, f"section_{s.index:02d}.png"), s, p, ns)
-        _say(args, f"plots in {args.plots}")
-    for o in out:
-        _say(args, f"section {o['index']}: chord {o['chord']:.3f} stagger {o['stagger_deg']:.2f}° "
-                   f"t_max {o['max_thickness']:.3f} r_LE {_fmt(o['le_radius'])} r_TE {_fmt(o['te_radius'])}")
+            plot_section(os.path.join(plots, f"section_{s.index:02d}.png"), s, p, ns)
     return out
 
 

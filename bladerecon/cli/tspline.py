@@ -11,11 +11,11 @@ parameters are (x, y) and z is fitted. ``--zmap`` forces the z-map reading. Unit
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 import time
 
 from bladerecon.core.errors import BladeReconError
+from bladerecon.core.io.outputs import Outputs, check_coordinates, check_input, count, one_line_errors, positive
 from bladerecon.core.surface.tspline_job import fit_point_file
 
 __all__ = ["add_parser", "run_tspline"]
@@ -28,14 +28,19 @@ def add_parser(sub) -> None:
                                    "sections) use the section reconstruction's (u,v); plain x y z files are "
                                    "z-maps over (x,y).")
     p.add_argument("input", help="point file: sections (blade) or plain 'x y z' lines / x,y,z CSV (z-map)")
-    p.add_argument("--tolerance", type=float, required=True, metavar="MM",
+    p.add_argument("--tolerance", type=positive(), required=True, metavar="MM",
                    help="largest allowed error at a point (mm): vertical for a z-map, |S(u,v)-P| for a blade")
-    p.add_argument("-o", "--output", help="STEP file to write (mm): the Bézier patches sewn into one shell")
+    p.add_argument("-o", "--output", help="STEP file to write (mm): the Bézier patches sewn into one shell; "
+                                          "put in place only when the whole command succeeds")
     p.add_argument("--zmap", action="store_true", help="treat the points as a z-map over (x, y) even if they have sections")
-    p.add_argument("--max-iterations", type=int, default=40, help="refinement limit (default 40)")
-    p.add_argument("--max-control-points", type=int, default=6000, help="control point limit (default 6000)")
-    p.add_argument("--nd", type=int, help="N_d: split initial cells holding more points (default points/16)")
-    p.add_argument("--nf", type=int, help="N_f: split initial cells holding more feature points (default points/80)")
+    p.add_argument("--max-iterations", type=count(0, 10_000), default=40, metavar="N",
+                   help="refinement limit (default 40)")
+    p.add_argument("--max-control-points", type=count(16, 100_000), default=6000, metavar="N",
+                   help="control point limit (default 6000)")
+    p.add_argument("--nd", type=count(1), metavar="N",
+                   help="N_d: split initial cells holding more points (default points/16)")
+    p.add_argument("--nf", type=count(1), metavar="N",
+                   help="N_f: split initial cells holding more feature points (default points/80)")
     p.add_argument("--cut-order", choices=("longer-side", "switch-side"), default="longer-side",
                    help="where a cell that the midpoint would starve of data is cut: on its longer side between "
                         "the middle data lines (default) or on its other side")
@@ -45,6 +50,7 @@ def add_parser(sub) -> None:
                         "seam constraint). Ignored for z-maps")
     p.add_argument("--json", action="store_true", help="print one JSON summary object to stdout")
     p.add_argument("--quiet", action="store_true", help="no progress messages on stderr")
+    one_line_errors(p)
     p.set_defaults(run=run_tspline)
 
 
@@ -53,14 +59,33 @@ def _say(args, msg: str) -> None:
         print(f"bladerecon: {msg}", file=sys.stderr, flush=True)
 
 
+def _check_coordinates(path: str) -> None:
+    """Coordinates beyond ±1 km (a corrupt line, wrong units) are refused before the fit; a file
+    the point reader does not take is left to the fit's own reading (z-maps)."""
+    from bladerecon.core.io.readers import read_points
+
+    try:
+        ps = read_points(path, require_sections=False)
+    except BladeReconError:
+        return
+    check_coordinates(ps.points, ps.line, path)
+
+
 def run_tspline(args: argparse.Namespace) -> dict:
-    t0 = time.perf_counter()
+    """Run the subcommand; the STEP is put in place only when all of it succeeded."""
+    check_input(args.input, "INPUT")
+    with Outputs(inputs=(args.input,)) as outs:
+        temp = outs.file(args.output, "--output")
+        summary = _run(args, temp)
+        outs.commit()
     if args.output:
-        parent = os.path.dirname(os.path.abspath(args.output)) or "."
-        if not os.path.isdir(parent):
-            raise BladeReconError(f"--output {args.output}: folder {parent} does not exist; create it first")
-        if os.path.abspath(args.output) == os.path.abspath(args.input):
-            raise BladeReconError(f"--output {args.output} is the input file: choose another name")
+        _say(args, f"wrote {args.output}")
+    return summary
+
+
+def _run(args: argparse.Namespace, temp: str | None) -> dict:
+    t0 = time.perf_counter()
+    _check_coordinates(args.input)
     _, patches, summary = fit_point_file(args.input, args.tolerance, args.zmap, args.nd, args.nf,
                                          args.max_iterations, args.max_control_points, lambda m: _say(args, m),
                                          args.cut_order, args.seam)
@@ -68,10 +93,9 @@ def run_tspline(args: argparse.Namespace) -> dict:
     if args.output:
         from bladerecon.fc.tspline_export import write_tspline_step
         _say(args, "sewing patches and writing STEP")
-        info = write_tspline_step(patches, args.output, seam="seam_gap_max" in summary)
+        info = write_tspline_step(patches, temp, seam="seam_gap_max" in summary)
         summary["faces"] = info["faces"]
         summary["output"] = {"step": args.output, **info}
-        _say(args, f"wrote {args.output}")
     summary["seconds"] = time.perf_counter() - t0
     summary["seconds_fit"] = t_fit - t0
     return summary

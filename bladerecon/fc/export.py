@@ -15,6 +15,7 @@ import numpy as np
 
 from bladerecon.core.geometry.bspline import evaluate_surface
 from bladerecon.core.errors import BladeReconError
+from bladerecon.core.io.outputs import check_file_target, check_input, os_error_message, shown, write_problem
 from bladerecon.core.geometry.spline import BSplineSurface
 from bladerecon.core.tolerances import PLANAR_TOL
 
@@ -35,20 +36,31 @@ def _occ_message(err: BaseException) -> str:
     """FreeCAD 0.20 wraps C++ exceptions in a dict; later versions in plain text."""
     arg = err.args[0] if err.args else err
     if isinstance(arg, dict):
-        return str(arg.get("swhat") or arg.get("sErrMsg") or arg)
-    return str(arg).splitlines()[0] if str(arg) else type(err).__name__
+        return shown(str(arg.get("swhat") or arg.get("sErrMsg") or arg), 200)
+    return shown(str(arg).splitlines()[0], 200) if str(arg).strip() else type(err).__name__
 
 
 # --------------------------------------------------------------------------- STEP writing
 def _check_writable(path: str) -> str:
+    """The folder to write ``path`` in; an existing device, FIFO, socket, link or folder at
+    ``path`` is refused (a rename would replace it), as are a missing or unwritable folder."""
     folder = os.path.dirname(os.path.abspath(path))
     if not os.path.isdir(folder):
-        raise BladeReconError(f"cannot write {path}: folder {folder} does not exist")
-    if os.path.isdir(path):
-        raise BladeReconError(f"cannot write {path}: it is a folder")
+        raise BladeReconError(f"cannot write {shown(path, 200)}: folder {shown(folder, 200)} does not exist")
+    check_file_target(path, "cannot write")
     if not os.access(folder, os.W_OK | os.X_OK):
-        raise BladeReconError(f"cannot write {path}: folder {folder} is not writable")
+        raise BladeReconError(f"cannot write {shown(path, 200)}: folder {shown(folder, 200)} is not writable")
     return folder
+
+
+def _write_problem(folder: str, tmp: str, path: str) -> str | None:
+    """The OS reason a STEP write into ``folder`` failed (disk full, read-only, ...), or None."""
+    problem = write_problem(folder)  # (the partial file still takes its space: a full disk shows)
+    try:
+        os.remove(tmp)
+    except OSError:
+        pass
+    return problem.replace(f" {shown(folder, 200)}:", f" {shown(path, 200)}:", 1) if problem else None
 
 
 def _export_step(shape: Any, path: str) -> None:
@@ -84,15 +96,21 @@ def write_step(shape: Any, path: str | os.PathLike) -> None:
     if shape is None or shape.isNull():
         raise BladeReconError(f"cannot write {path}: the shape is empty")
     folder = _check_writable(path)
-    fd, tmp = tempfile.mkstemp(prefix="." + os.path.basename(path) + ".", suffix=".part", dir=folder)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix="." + os.path.basename(path) + ".", suffix=".part", dir=folder)
+    except OSError as err:
+        raise BladeReconError(os_error_message(err, path)) from None
     os.close(fd)
     try:
         try:
             _export_step(shape, tmp)
         except (OSError, RuntimeError, Part.OCCError) as err:
-            raise BladeReconError(f"cannot write {path}: OpenCASCADE failed ({_occ_message(err)})") from None
+            # OpenCASCADE says only "failed": a full disk or a lost share is told as such
+            raise BladeReconError(_write_problem(folder, tmp, path)
+                                  or f"cannot write {shown(path, 200)}: OpenCASCADE failed ({_occ_message(err)})") from None
         if os.path.getsize(tmp) == 0:
-            raise BladeReconError(f"cannot write {path}: OpenCASCADE wrote nothing")
+            raise BladeReconError(_write_problem(folder, tmp, path)
+                                  or f"cannot write {shown(path, 200)}: OpenCASCADE wrote nothing")
         if not _is_millimetre_step(tmp):
             raise BladeReconError(f"cannot write {path}: the STEP writer did not use millimetres")
         umask = os.umask(0)
@@ -178,6 +196,19 @@ def make_solid(surface: BSplineSurface, planar_tol: float = PLANAR_TOL) -> Any:
                     f"{planar_tol:g} mm): export without --solid"
                 )
             v_ends.append((name, samples))
+    try:
+        solid = _capped_solid(surface, v_ends)
+    except (RuntimeError, ValueError, Part.OCCError) as err:  # OCC's builders and fixers refuse in these
+        raise BladeReconError(f"cannot make a solid: OpenCASCADE refused the capped surface ({_occ_message(err)}): "
+                              "export without --solid") from None
+    if not (solid.isValid() and solid.isClosed() and solid.Volume > 0):
+        raise BladeReconError(
+            "the closed solid failed OpenCASCADE's validity check (self-intersecting surface?): export without --solid"
+        )
+    return solid
+
+
+def _capped_solid(surface: BSplineSurface, v_ends: list[tuple[str, np.ndarray]]) -> Any:
     lateral = make_face(surface)
     faces = [lateral]
     if v_ends:  # a surface periodic in v too (a torus) is closed already
@@ -191,10 +222,6 @@ def make_solid(surface: BSplineSurface, planar_tol: float = PLANAR_TOL) -> Any:
     solid.fix(_FIX_TOL, _FIX_TOL, _FIX_TOL)  # ShapeFix_Solid: outward orientation
     if solid.Volume < 0:
         solid.reverse()
-    if not (solid.isValid() and solid.isClosed() and solid.Volume > 0):
-        raise BladeReconError(
-            "the closed solid failed OpenCASCADE's validity check (self-intersecting surface?): export without --solid"
-        )
     return solid
 
 
@@ -256,8 +283,9 @@ def read_shape(path: str | os.PathLike) -> Any:
         raise BladeReconError(
             f"cannot read {path}: unknown file type '{suffix}' (use .step/.stp, .iges/.igs, .brep/.brp or .FCStd)"
         )
-    if not os.path.isfile(path):
+    if not os.path.lexists(path):
         raise BladeReconError(f"cannot read {path}: file not found")
+    check_input(path, "cannot read")
     if not os.access(path, os.R_OK):
         raise BladeReconError(f"cannot read {path}: permission denied")
     if os.path.getsize(path) == 0:

@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from bladerecon.core.errors import BladeReconError
+from bladerecon.core.io.outputs import check_folder_target, os_error
 
 __all__ = ["write_deviation_report", "write_analysis_report"]
 
@@ -304,6 +305,14 @@ def write_deviation_report(folder: str, summary: dict, result, nominal, section,
     The surface analysis plots show ``measured_surface`` (a reconstructed surface given as
     MEASURED, after alignment) if there is one, else the nominal's first B-spline face.
     """
+    check_folder_target(folder, "report folder", force=True)
+    try:
+        _write_deviation_report(folder, summary, result, nominal, section, names, measured_surface)
+    except OSError as err:
+        raise os_error(err, folder) from None
+
+
+def _write_deviation_report(folder, summary, result, nominal, section, names, measured_surface) -> None:
     from bladerecon.fc.deviation import write_deviation_csv
 
     folder = os.path.abspath(folder)

@@ -14,6 +14,8 @@ import tempfile
 
 import numpy as np
 
+from bladerecon.core.io.outputs import check_folder_target, os_error
+
 __all__ = ["write_report"]
 
 _README = """BladeRecon reconstruction report (all lengths in mm)
@@ -69,7 +71,19 @@ def _plot_nominal(path: str, uv: np.ndarray, dev: np.ndarray) -> None:
 
 
 def write_report(folder: str, summary: dict, sections, measured: np.ndarray, proj, nominal_dev) -> None:
-    """Write the report files into ``folder`` (created if missing) atomically, file set at once."""
+    """Write the report files into ``folder`` (created if missing) atomically, file set at once.
+
+    A ``folder`` that is a file, device or link is refused; an OS failure (disk full, read-only)
+    is one :class:`BladeReconError` line naming ``folder``.
+    """
+    check_folder_target(folder, "report folder", force=True)
+    try:
+        _write_report(folder, summary, sections, measured, proj, nominal_dev)
+    except OSError as err:
+        raise os_error(err, folder) from None
+
+
+def _write_report(folder, summary, sections, measured, proj, nominal_dev) -> None:
     folder = os.path.abspath(folder)
     parent = os.path.dirname(folder)
     tmp = tempfile.mkdtemp(prefix=".bladerecon-report-", dir=parent)

@@ -68,8 +68,10 @@ def plot_section(path: str, seg, params, nominal_seg=None) -> None:
         a.set_ylim(centre[1] - half, centre[1] + half)
         a.set_title(f"{name} region (points coloured by region; x = joints)", fontsize=8)
     fig.tight_layout()
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
+    try:
+        fig.savefig(path, dpi=90)
+    finally:                      # a full disk: the figure is not kept open
+        plt.close(fig)
 
 
 def _f(v):

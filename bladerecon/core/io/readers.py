@@ -21,7 +21,9 @@ names (an integer label ``3.0`` or ``03`` is named ``3``); sections without a la
 named ``1``, ``2``, ... (the 1-based position, as in the NASA tables).
 
 Every error a user can cause raises :class:`BladeReconError` with a one-line message
-naming the file, the line and what to do. The input file is only ever read.
+naming the file, the line and what to do; text from the file is shown escaped and cut
+(:func:`bladerecon.core.io.outputs.shown`), and a NUL byte in the first megabyte is refused
+as binary content. The input file is only ever read.
 """
 from __future__ import annotations
 
@@ -36,6 +38,7 @@ from typing import Sequence
 import numpy as np
 
 from bladerecon.core.errors import BladeReconError
+from bladerecon.core.io.outputs import shown
 
 __all__ = ["PointSet", "read_points", "write_points_csv"]
 
@@ -44,6 +47,7 @@ _NO_STRUCTURE = (
     "sections by blank lines; an unordered cloud: cut it into sections with reconstruct "
     "--slice N (planes) or --slice-radii R1,R2,.. (cylinders)"
 )
+_TEXT_CHECK_BYTES = 1 << 20      # NUL bytes in the first megabyte: not a text file
 _UNIT_SUFFIX = re.compile(r"[\s_]*[\[(]?\s*mm\s*[\])]?$")
 
 
@@ -104,6 +108,15 @@ def read_points(path: str | os.PathLike, require_sections: bool = True) -> Point
             wrong point count, or points with no section structure.
     """
     source = str(path)
+    try:
+        return _read_points(source, require_sections)
+    except BladeReconError as err:      # a file name with control characters: shown escaped
+        if shown(source, len(source) + 1) == source:
+            raise
+        raise BladeReconError(str(err).replace(source, shown(source, 200))) from None
+
+
+def _read_points(source: str, require_sections: bool) -> PointSet:
     raw = _read_bytes(source)
     fast = _read_fast(source, raw, require_sections)
     if fast is not None:
@@ -126,7 +139,7 @@ def read_points(path: str | os.PathLike, require_sections: bool = True) -> Point
         return _read_section_table(source, lines, first)
     if n_numeric < len(tokens) and len(tokens) not in (3, 4):
         raise BladeReconError(
-            f"{source}, line {first + 1}: '{head[:60]}' is neither a header naming x, y, z nor "
+            f"{source}, line {first + 1}: '{shown(head)}' is neither a header naming x, y, z nor "
             "a line of numbers: use a CSV with a header, or 'x y z' lines")
     return _read_xyz_blocks(source, lines, first, len(tokens), require_sections)
 
@@ -199,6 +212,11 @@ def _read_bytes(source: str) -> bytes:
                               "check its permissions") from None
     if not raw.strip():
         raise BladeReconError(f"{source}: the file is empty: give one point per line")
+    nul = raw.find(b"\0", 0, _TEXT_CHECK_BYTES)
+    if nul >= 0:
+        utf16 = " (UTF-16 text? save it as UTF-8)" if raw[:2] in (b"\xff\xfe", b"\xfe\xff") else ""
+        raise BladeReconError(f"{source}: not a text point file: a NUL byte at offset {nul}{utf16}: give a CSV "
+                              "or 'x y z' text file")
     return raw
 
 
@@ -261,12 +279,12 @@ def _to_float(source: str, idx: list[int], cells: list[str], column: str,
                 values[k] = float(c.strip().strip("\"'"))
             except ValueError:
                 raise BladeReconError(
-                    f"{source}, line {i + 1}: column '{column}' has '{c.strip()}', which is "
+                    f"{source}, line {i + 1}: column '{shown(column)}' has '{shown(c.strip())}', which is "
                     "not a number: correct or delete that line") from None
     bad = np.flatnonzero(~np.isfinite(values))
     if bad.size:
-        raise BladeReconError(f"{source}, line {idx[bad[0]] + 1}: column '{column}' is "
-                              f"'{cells[bad[0]].strip()}' (NaN or infinite): correct or delete "
+        raise BladeReconError(f"{source}, line {idx[bad[0]] + 1}: column '{shown(column)}' is "
+                              f"'{shown(cells[bad[0]].strip())}' (NaN or infinite): correct or delete "
                               "that line")
     return values
 
@@ -389,7 +407,7 @@ def _header(source: str, header: str, first: int) -> tuple[str | None, list[str]
             col[n] = k
     missing = [c for c in "xyz" if c not in col]
     if missing:
-        found = ", ".join(repr(n) for n in names)
+        found = ", ".join(f"'{shown(n, 30)}'" for n in names[:12]) + (", …" if len(names) > 12 else "")
         raise BladeReconError(
             f"{source}, line {first + 1}: header has no column {', '.join(map(repr, missing))} "
             f"(found {found}): name the coordinate columns x, y, z")
@@ -469,7 +487,7 @@ def _read_section_table(source: str, lines: list[str], first: int) -> PointSet:
         npts, nsec = int(head[0]), int(head[1])
     except ValueError:
         raise BladeReconError(f"{source}, line {first + 1}: expected 'NPTS NSECTIONS' (two "
-                              f"whole numbers), found '{lines[first].strip()}': fix the "
+                              f"whole numbers), found '{shown(lines[first].strip())}': fix the "
                               "header line") from None
     if npts < 1 or nsec < 1:
         raise BladeReconError(f"{source}, line {first + 1}: 'NPTS NSECTIONS' must be positive, "
