@@ -13,7 +13,10 @@ from hypothesis import strategies as st
 from bladerecon.core.errors import BladeReconError
 from bladerecon.core.io import readers
 
-SETTINGS = settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+# derandomize: the same examples on every run (a CI run never fails by the draw); raise
+# max_examples locally to search wider
+SETTINGS = settings(max_examples=60, deadline=None, derandomize=True,
+                    suppress_health_check=[HealthCheck.function_scoped_fixture])
 
 
 def careful(path, require_sections=True):
@@ -83,8 +86,8 @@ def test_fast_and_careful_paths_agree(tmp_path, text, require):
 
 MUTATIONS = {
     "bad cell": lambda v: v.replace("1", "1x", 1),
-    "missing value": lambda v: v.rsplit(",", 1)[0] if "," in v else v.rsplit(" ", 1)[0],
-    "nan": lambda v: "nan" + v[v.index(","):] if "," in v else "nan " + v.split(" ", 1)[1],
+    "missing value": lambda v: v.rsplit(",", 1)[0] if "," in v else v.rsplit(None, 1)[0],
+    "nan": lambda v: "nan" + v[v.index(","):] if "," in v else "nan " + v.split(None, 1)[1],
     "comment": lambda v: v + " # probe 3",
     "quotes": lambda v: '"' + v + '"',
     "spaces only": lambda v: "   ",
