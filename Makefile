@@ -45,7 +45,7 @@ test-freecad1:
 # stdout: the JSON summary only (progress goes to stderr), so `make demo | python3 -m json.tool` works.
 demo: deps
 	@mkdir -p demo_out
-	@$(PYTHON) -m bladerecon reconstruct resources/sample/measured.csv -o demo_out/blade.step --nominal resources/sample/nominal.step --report demo_out/report --json
+	@$(PYTHON) -m bladerecon reconstruct resources/sample/measured.csv -o demo_out/blade.step --nominal resources/sample/nominal.step --report demo_out/report --force --json
 
 # run_all.py: reconstruction against FreeCAD's ways; each bench/bench_*.py: one topic's table
 # beside its peers (writes bench/results/<topic>.md).

@@ -8,7 +8,6 @@ local bicubic patches) are added by :mod:`bladerecon.cli.realdata`.
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 import time
 
@@ -36,6 +35,7 @@ def add_parser(sub) -> None:
     r.add_argument("-o", "--output", help="STEP file to write (mm); written atomically")
     r.add_argument("--nominal", help="nominal blade (STEP/IGES/BREP/FCStd) to compute the shape error against")
     r.add_argument("--report", metavar="DIR", help="folder for summary.json, points.csv, plots")
+    r.add_argument("--force", action="store_true", help="write --report into a folder that already holds files")
     r.add_argument("--json", action="store_true", help="print one JSON summary object to stdout")
     r.add_argument("--method", choices=("auto", "interpolate", "approximate"), default="auto",
                    help="auto (default): interpolate or smooth, chosen from point spacing against noise")
@@ -63,25 +63,37 @@ def _stats(d: np.ndarray, signed: bool | None = None) -> dict:
 
 
 def run_reconstruct(args: argparse.Namespace) -> dict:
+    """Every output checked before any work, written beside its target and put in place only
+    when the whole command succeeded (nothing new left, nothing old lost, on any failure)."""
+    from bladerecon.core.io.outputs import Outputs
+
+    say = _Progress(args.quiet or False)
+    with Outputs(inputs=(args.input, args.nominal)) as outs:
+        step = outs.file(args.output, "--output")
+        report = outs.folder(args.report, "--report", force=args.force)
+        summary = _reconstruct(args, say, step, report)
+        outs.commit()
+    if args.output:
+        say(f"wrote {args.output}")
+    if args.report:
+        say(f"report in {args.report}")
+    return summary
+
+
+def _reconstruct(args: argparse.Namespace, say, step: str | None, report: str | None) -> dict:
+    """The work of ``reconstruct``; the STEP goes to ``step`` and the report into ``report``
+    (temporaries of :class:`~bladerecon.core.io.outputs.Outputs`)."""
     from bladerecon.cli import realdata
     from bladerecon.core.sections.ordering import build_sections
     from bladerecon.core.reconstruct import reconstruct
     from bladerecon.core.surface.pairing import reconstruct_paired
     from bladerecon.core.geometry.projection import project_points_to_surface
 
-    say = _Progress(args.quiet or False)
     realdata.check_options(args)
     if args.tolerance is not None and args.method != "approximate":
         raise BladeReconError("--tolerance applies to --method approximate; add --method approximate")
     if args.pairing == "angle" and args.method == "approximate":
         raise BladeReconError("--pairing angle interpolates the paired points; use it without --method approximate")
-    for path, what in ((args.output, "--output"), (args.report, "--report")):
-        if path:
-            parent = os.path.dirname(os.path.abspath(path)) or "."
-            if not os.path.isdir(parent):
-                raise BladeReconError(f"{what} {path}: folder {parent} does not exist; create it first")
-    if args.output and os.path.abspath(args.output) == os.path.abspath(args.input):
-        raise BladeReconError(f"--output {args.output} is the input file: choose another name (inputs are never overwritten)")
     t_start = time.perf_counter()
     say(f"reading {args.input}")
     pointset, slicing = realdata.read_input(args)
@@ -166,9 +178,8 @@ def run_reconstruct(args: argparse.Namespace) -> dict:
     if args.output:
         from bladerecon.fc.export import write_step
         shape = realdata.make_shape(surf, args)
-        write_step(shape, args.output)
+        write_step(shape, step)
         summary["output"] = {"step": args.output, "solid": bool(args.solid)}
-        say(f"wrote {args.output}")
     t_export = time.perf_counter()
 
     nominal_dev = None
@@ -189,8 +200,7 @@ def run_reconstruct(args: argparse.Namespace) -> dict:
                           "compare": t_compare - t_export, "total": t_compare - t_start}
     if args.report:
         from bladerecon.report.reconstruct import write_report
-        write_report(args.report, summary, sections, measured, proj, nominal_dev)
+        write_report(report, summary, sections, measured, proj, nominal_dev)
         if fairing is not None:
-            realdata.write_fairing_csv(args.report, fairing_table)
-        say(f"report in {args.report}")
+            realdata.write_fairing_csv(report, fairing_table)
     return summary
