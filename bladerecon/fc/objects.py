@@ -36,7 +36,8 @@ __all__ = ["MeasuredPoints", "BladeSections", "BladeSurface", "DeviationAnalysis
            "make_measured_points", "make_blade_sections", "make_blade_surface", "make_deviation_analysis",
            "point_set", "core_surface", "surface_grid", "section_parameters", "SectionParameters",
            "export_step", "register_view_provider", "VIEW_PROVIDERS", "register_failure_hook", "FAILURE_HOOKS",
-           "is_type", "ALIGN_MODES", "METHODS"]
+           "is_type", "ALIGN_MODES", "METHODS", "DeviationJob", "DeviationMeasurement", "deviation_job",
+           "measure_job", "store_measurement"]
 
 FreeCAD, Part = import_freecad()
 
@@ -451,6 +452,11 @@ def surface_grid(surface, per_span: int, n_v: int) -> tuple[np.ndarray, np.ndarr
 class DeviationAnalysis(_Feature):
     """Signed deviation (mm, + outside) of the measured points, and of the surface, from a nominal.
 
+    A recompute measures in the foreground (:func:`deviation_job`, :func:`measure_job`,
+    :func:`store_measurement`), unless ``precomputed`` holds ``(key, DeviationMeasurement or
+    exception)`` for the same inputs: the GUI measures off its thread and hands the result
+    over this way, so that storing it stays in the recompute (and its undo transaction).
+
     The statistics are those of ``python3 -m bladerecon deviation --json`` (same functions:
     :func:`bladerecon.fc.deviation.measure_deviation`).
     """
@@ -495,53 +501,17 @@ class DeviationAnalysis(_Feature):
             obj.Tolerance = 0.03
 
     def compute(self, obj: Any) -> None:
-        from bladerecon.core.analysis.alignment import apply_transform
-
-        from bladerecon.fc.deviation import Nominal, measure_deviation
-
-        ps = _linked_points(obj, "Measured")
-        if obj.Nominal is None:
-            raise BladeReconError(f"{obj.Label}: no nominal linked: set its 'Nominal' property")
-        shape = getattr(obj.Nominal, "Shape", None)
-        if shape is None or shape.isNull():
-            raise BladeReconError(f"{obj.Label}: the nominal {obj.Nominal.Label} has no shape")
-        if not obj.Tolerance > 0:
-            raise BladeReconError(f"{obj.Label}: Tolerance {obj.Tolerance}: give a positive tolerance in mm")
-        with _Progress(f"{obj.Label}: measuring against {obj.Nominal.Label}", 3) as progress:
-            nominal = Nominal(shape, obj.Nominal.Label)
-            progress.step()
-            grid, grid_dev, size = np.zeros((0, 3)), [], []
-            if obj.Surface is not None:
-                g = surface_grid(core_surface(obj.Surface), MAP_SAMPLES_PER_SPAN, MAP_SAMPLES_SPAN)[2]
-                grid, size = g.reshape(-1, 3), list(g.shape[:2])
-            if obj.Alignment == "none":
-                # one projection for points and surface grid: its set-up is most of the cost
-                res, grid_dev = _measure_together(ps.points, grid, nominal, obj.Tolerance, ps.source)
-                progress.step()
-            else:
-                res = measure_deviation(ps.points, nominal, obj.Alignment, obj.Tolerance, source=ps.source,
-                                        robust=bool(obj.RobustFit))
-                progress.step()
-                if len(grid):
-                    grid = apply_transform(grid, res.alignment.matrix)
-                    grid_dev = nominal.measure(grid).signed
-            matrix = res.alignment.matrix if res.alignment is not None else np.eye(4)
-            progress.step()
-        s = res.stats
-        obj.PointCount = s["points"]
-        obj.Max, obj.Min, obj.Mean, obj.Std = s["max"], s["min"], s["mean"], s["std"]
-        obj.Rms, obj.MaxAbs, obj.MeanAbs = s["rms"], s["max_abs"], s["mean_abs"]
-        obj.WithinTolerancePct = s["within_tolerance_pct"]
-        obj.MeasureMethod = "+".join(res.deviation.methods)
-        obj.AlignmentMatrix = FreeCAD.Matrix(*np.asarray(matrix, float).ravel().tolist())
-        obj.RotationDeg = float(res.alignment.rotation_deg) if res.alignment is not None else 0.0
-        obj.TranslationMm = FreeCAD.Vector(*(matrix[:3, 3]))
-        obj.PointsWeightedOut = res.alignment.points_weighted_out if res.alignment is not None else 0
-        obj.Deviations = [float(x) for x in res.deviation.signed]
-        obj.AlignedPoints = _vectors(res.points)
-        obj.SurfaceDeviations = [float(x) for x in grid_dev]
-        obj.SurfaceGrid = _vectors(grid) if len(grid) else []
-        obj.SurfaceGridSize = [int(x) for x in size]
+        inputs = (obj.Measured, obj.Nominal, obj.Surface, obj.Alignment, obj.Tolerance, bool(obj.RobustFit))
+        ready, self.precomputed = getattr(self, "precomputed", None), None
+        if ready is not None and ready[0] == deviation_key(*inputs):   # measured off the GUI thread for these
+            outcome = ready[1]
+            if isinstance(outcome, BaseException):
+                raise outcome
+        else:
+            job = deviation_job(*inputs, obj.Label)
+            with _Progress(f"{obj.Label}: measuring against {job.nominal_label}", 3) as progress:
+                outcome = measure_job(job, progress.step)
+        store_measurement(obj, outcome)
 
     @staticmethod
     def stats(obj: Any) -> dict:
@@ -549,6 +519,119 @@ class DeviationAnalysis(_Feature):
         return {"points": obj.PointCount, "max": obj.Max, "min": obj.Min, "mean": obj.Mean, "std": obj.Std,
                 "rms": obj.Rms, "max_abs": obj.MaxAbs, "mean_abs": obj.MeanAbs,
                 "within_tolerance_pct": obj.WithinTolerancePct, "tolerance": obj.Tolerance}
+
+
+@dataclass
+class DeviationJob:
+    """What a DeviationAnalysis measures, copied out of the document: :func:`measure_job` reads
+    nothing else, so it can run in a worker thread while the document stays editable.
+    ``key`` names the inputs (a result measured for one key is stored only for the same)."""
+
+    points: np.ndarray
+    source: str
+    shape: Any
+    nominal_label: str
+    surface: Any
+    alignment: str
+    tolerance: float
+    robust: bool
+    key: tuple
+
+
+@dataclass
+class DeviationMeasurement:
+    """The result of :func:`measure_job`, written into the object by :func:`store_measurement`."""
+
+    result: Any
+    grid: np.ndarray
+    grid_deviation: Any
+    grid_size: list
+    matrix: np.ndarray
+
+
+def deviation_job(measured: Any, nominal: Any, surface: Any, alignment: str, tolerance: float, robust: bool,
+                  label: str = "Deviation analysis", copy_shape: bool = False) -> DeviationJob:
+    """The :class:`DeviationJob` of these inputs (document objects), checked: one-line errors.
+    ``copy_shape``: the job holds a copy of the nominal's shape (to measure in a worker thread
+    while the document may change)."""
+    if measured is None:
+        raise BladeReconError(f"{label}: no measured points linked: set its 'Measured' property")
+    ps = point_set(measured)
+    if nominal is None:
+        raise BladeReconError(f"{label}: no nominal linked: set its 'Nominal' property")
+    shape = getattr(nominal, "Shape", None)
+    if shape is None or shape.isNull():
+        raise BladeReconError(f"{label}: the nominal {nominal.Label} has no shape")
+    if not tolerance > 0:
+        raise BladeReconError(f"{label}: Tolerance {tolerance}: give a positive tolerance in mm")
+    core = core_surface(surface) if surface is not None else None
+    points = np.ascontiguousarray(ps.points, float)
+    return DeviationJob(points, ps.source, shape.copy() if copy_shape else shape, nominal.Label, core, alignment,
+                        float(tolerance), bool(robust), deviation_key(measured, nominal, surface, alignment, tolerance,
+                                                                      robust))
+
+
+def deviation_key(measured: Any, nominal: Any, surface: Any, alignment: str, tolerance: float, robust: bool) -> tuple:
+    """What names the inputs of a measurement without reading them: the objects, their shapes
+    (a MeasuredPoints gets a new shape whenever its points change: a recompute makes it), the
+    options."""
+
+    def shape_of(o: Any) -> Any:
+        shape = getattr(o, "Shape", None)
+        return None if o is None else (o.Name, None if shape is None or shape.isNull() else shape.hashCode())
+
+    return (shape_of(measured), getattr(measured, "PointCount", None), shape_of(nominal), shape_of(surface),
+            alignment, float(tolerance), bool(robust))
+
+
+def measure_job(job: DeviationJob, step: Any = None) -> DeviationMeasurement:
+    """Measure ``job`` (no document access: safe off the GUI thread). ``step()``, if given, is
+    called after each of 3 steps (FreeCAD's progress bar; it may raise to cancel)."""
+    from bladerecon.core.analysis.alignment import apply_transform
+
+    from bladerecon.fc.deviation import Nominal, measure_deviation
+
+    step = step or (lambda: None)
+    nominal = Nominal(job.shape, job.nominal_label)
+    step()
+    grid, grid_dev, size = np.zeros((0, 3)), [], []
+    if job.surface is not None:
+        g = surface_grid(job.surface, MAP_SAMPLES_PER_SPAN, MAP_SAMPLES_SPAN)[2]
+        grid, size = g.reshape(-1, 3), list(g.shape[:2])
+    if job.alignment == "none":
+        # one projection for points and surface grid: its set-up is most of the cost
+        res, grid_dev = _measure_together(job.points, grid, nominal, job.tolerance, job.source)
+        step()
+    else:
+        res = measure_deviation(job.points, nominal, job.alignment, job.tolerance, source=job.source,
+                                robust=job.robust)
+        step()
+        if len(grid):
+            grid = apply_transform(grid, res.alignment.matrix)
+            grid_dev = nominal.measure(grid).signed
+    matrix = res.alignment.matrix if res.alignment is not None else np.eye(4)
+    step()
+    return DeviationMeasurement(res, grid, grid_dev, size, matrix)
+
+
+def store_measurement(obj: Any, m: DeviationMeasurement) -> None:
+    """Write a :class:`DeviationMeasurement` into the DeviationAnalysis ``obj`` (GUI thread)."""
+    res, matrix, grid = m.result, m.matrix, m.grid
+    s = res.stats
+    obj.PointCount = s["points"]
+    obj.Max, obj.Min, obj.Mean, obj.Std = s["max"], s["min"], s["mean"], s["std"]
+    obj.Rms, obj.MaxAbs, obj.MeanAbs = s["rms"], s["max_abs"], s["mean_abs"]
+    obj.WithinTolerancePct = s["within_tolerance_pct"]
+    obj.MeasureMethod = "+".join(res.deviation.methods)
+    obj.AlignmentMatrix = FreeCAD.Matrix(*np.asarray(matrix, float).ravel().tolist())
+    obj.RotationDeg = float(res.alignment.rotation_deg) if res.alignment is not None else 0.0
+    obj.TranslationMm = FreeCAD.Vector(*(matrix[:3, 3]))
+    obj.PointsWeightedOut = res.alignment.points_weighted_out if res.alignment is not None else 0
+    obj.Deviations = [float(x) for x in res.deviation.signed]
+    obj.AlignedPoints = _vectors(res.points)
+    obj.SurfaceDeviations = [float(x) for x in m.grid_deviation]
+    obj.SurfaceGrid = _vectors(grid) if len(grid) else []
+    obj.SurfaceGridSize = [int(x) for x in m.grid_size]
 
 
 def _measure_together(points: np.ndarray, extra: np.ndarray, nominal, tolerance: float, source: str):

@@ -90,12 +90,15 @@ def _ref(obj: Any) -> str:
     return "None" if obj is None else f"App.getDocument({obj.Document.Name!r}).getObject({obj.Name!r})"
 
 
-def _run(doc: Any, title: str, lines: list[str], result: str | None = None, then: Any = None) -> Any:
+def _run(doc: Any, title: str, lines: list[str], result: str | None = None, then: Any = None,
+         before_recompute: Any = None) -> Any:
     """Run console ``lines`` in one undo transaction, recompute, report a failed object.
 
     ``result``: name of a variable the lines assign (e.g. the new object); returned.
     ``then(obj)``: console lines to run in the same transaction once ``obj`` recomputed fine
     (showing it: undo takes them back with the object).
+    ``before_recompute(obj)``: called (not replayed) just before the recompute, e.g. to hand
+    ``obj`` a result measured off the GUI thread.
     A new object that fails on its first recompute is not left in the document: the
     transaction is undone and the reason, already in the report view once (the object said
     it), is shown in a message box. An existing object that fails keeps its previous result,
@@ -109,6 +112,8 @@ def _run(doc: Any, title: str, lines: list[str], result: str | None = None, then
         FreeCADGui.doCommand("import bladerecon.fc.objects as bro")
         for line in lines:
             FreeCADGui.doCommand(line)
+        if before_recompute is not None and result is not None and getattr(__main__, result, None) is not None:
+            before_recompute(getattr(__main__, result))
         FreeCADGui.doCommand(f"App.getDocument({doc.Name!r}).recompute()")
         failed = [o for o in doc.Objects if str(getattr(o, "Status", "")).startswith("failed")
                   and before.get(o.Name, "new") != o.Status]
@@ -213,9 +218,18 @@ def compare_with_nominal(measured: Any, nominal: Any, surface: Any = None, align
     """Add a DeviationAnalysis of ``measured`` (and ``surface``) against ``nominal`` and show its
     colour map, all one undo step. ``robust``: Tukey-biweight best fit (with an alignment).
 
-    The nominal is hidden (it lies on the measured surface); deleting the analysis shows it again.
+    The measurement runs first, off the GUI thread under FreeCAD's progress bar (Esc cancels:
+    the document is left as it was); then one transaction adds the object, whose recompute
+    stores that result (the console line replays it in the foreground). The nominal is hidden
+    (it lies on the measured surface); deleting the analysis shows it again.
     """
+    import time
+
     doc = measured.Document
+    t0 = time.time()
+    ready = _measure_off_the_gui_thread(measured, nominal, surface, alignment, tolerance, robust)
+    if ready is False:
+        return None
 
     def show(analysis: Any) -> list[str]:
         lines = []
@@ -226,11 +240,43 @@ def compare_with_nominal(measured: Any, nominal: Any, surface: Any = None, align
             lines += _map_lines(analysis, "Surface" if surface is not None else "Points", "_br_deviation")
         return lines
 
-    return _run(doc, "Compare with nominal",
-                [f"_br_deviation = bro.make_deviation_analysis(App.getDocument({doc.Name!r}), {_ref(measured)}, "
-                 f"{_ref(nominal)}, {_ref(surface)}, alignment={alignment!r}, tolerance={float(tolerance)!r}, "
-                 f"robust={bool(robust)!r})"],
-                "_br_deviation", then=show)
+    def hand_over(analysis: Any) -> None:
+        if ready is not None:
+            analysis.Proxy.precomputed = ready
+
+    obj = _run(doc, "Compare with nominal",
+               [f"_br_deviation = bro.make_deviation_analysis(App.getDocument({doc.Name!r}), {_ref(measured)}, "
+                f"{_ref(nominal)}, {_ref(surface)}, alignment={alignment!r}, tolerance={float(tolerance)!r}, "
+                f"robust={bool(robust)!r})"],
+               "_br_deviation", then=show, before_recompute=hand_over)
+    if obj is not None:
+        FreeCAD.Console.PrintLog(f"BladeRecon: compare took {time.time() - t0:.2f} s\n")
+    return obj
+
+
+def _measure_off_the_gui_thread(measured: Any, nominal: Any, surface: Any, alignment: str, tolerance: float,
+                                robust: bool) -> Any:
+    """``(key, DeviationMeasurement or its BladeReconError)`` measured in a worker thread; None
+    when the inputs cannot make a job (the recompute then says why, as from the console);
+    False when the user cancelled (said in one line)."""
+    try:
+        job = objects.deviation_job(measured, nominal, surface, alignment, float(tolerance), bool(robust),
+                                    copy_shape=True)
+    except BladeReconError:
+        return None
+    try:
+        outcome = off_the_gui_thread(f"Comparing {measured.Label} with {nominal.Label}",
+                                     lambda: objects.measure_job(job))
+    except Cancelled:
+        FreeCAD.Console.PrintWarning("BladeRecon: compare cancelled; the document is as it was "
+                                     "(previous results kept)\n")
+        return False
+    except BladeReconError as err:
+        outcome = err
+    except Exception:   # a bug: the recompute runs it again in the foreground and says it in one line
+        FreeCAD.Console.PrintLog(traceback.format_exc())
+        return None
+    return job.key, outcome
 
 
 # --------------------------------------------------------------------------- colour maps

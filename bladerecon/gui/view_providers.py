@@ -356,6 +356,12 @@ def _restoring(vobj: Any) -> bool:
     return bool(getattr(doc, "Restoring", False))
 
 
+def _busy(obj: Any) -> bool:
+    """The document of ``obj`` is being recomputed or read."""
+    doc = obj.Document
+    return bool(getattr(doc, "Recomputing", False) or getattr(doc, "Restoring", False))
+
+
 def show_again(vobj: Any, prop: str) -> None:
     """Show the objects named in the view property ``prop`` (hidden by a mode) and forget them."""
     names = list(getattr(vobj, prop, []) or [])
@@ -628,6 +634,44 @@ class ViewProviderDeviationAnalysis(_ViewProvider):
         vobj.addDisplayMode(sep, "Points")
         vobj.addDisplayMode(coin.SoSeparator(), "Surface")
         self._update(vobj.Object)
+        if _restoring(vobj):          # once the document (and its view properties) is read
+            self._later(self._bring_back_the_map, 0)
+
+    @staticmethod
+    def _later(call: Any, ms: int) -> None:
+        from PySide import QtCore
+
+        QtCore.QTimer.singleShot(ms, call)
+
+    def _bring_back_the_map(self, tries: int = 0) -> None:
+        """A document saved before the surface map became a display mode of the surface (before
+        5b77c3f) has this object visible in its mode ``Surface``, which the map drew then and
+        draws nothing now: show the map where it lives now, the surface in its ``Deviation``
+        mode (the view properties only; nothing is recomputed)."""
+        try:
+            obj = self.Object
+            doc, vobj = obj.Document, obj.ViewObject
+        except Exception:         # deleted meanwhile
+            return
+        if getattr(doc, "Restoring", False):
+            if tries < 600:
+                self._later(lambda: self._bring_back_the_map(tries + 1), 50)
+            return
+        surface = getattr(obj, "Surface", None)
+        svo = getattr(surface, "ViewObject", None)
+        if vobj is None or vobj.DisplayMode != "Surface" or not vobj.Visibility or svo is None \
+                or not hasattr(svo, "DeviationMap") or not len(obj.SurfaceDeviations):
+            return
+        if svo.Visibility and svo.DisplayMode in ("Zebra", "Curvature"):
+            return                # the surface shows another analysis: the map stays one command away
+        svo.DeviationMap = obj.Name
+        svo.DisplayMode = "Deviation"
+        svo.Visibility = True
+        vobj.Visibility = False
+        import FreeCAD
+
+        FreeCAD.Console.PrintLog(f"BladeRecon: {obj.Label}: its surface map (saved by an older version) is "
+                                 f"now shown on {surface.Label}\n")
 
     def getDisplayModes(self, vobj: Any) -> list[str]:  # noqa: N802
         return ["Surface", "Points"]
@@ -641,7 +685,25 @@ class ViewProviderDeviationAnalysis(_ViewProvider):
     def updateData(self, obj: Any, prop: str) -> None:  # noqa: N802
         if prop in ("Deviations", "AlignedPoints", "SurfaceDeviations", "SurfaceGrid", "SurfaceGridSize", "Tolerance") \
                 and hasattr(self, "points"):
+            if _busy(obj):        # a recompute or a file sets them one by one: draw once, after
+                if not getattr(self, "pending", False):
+                    self.pending = True
+                    self._later(self._flush, 0)
+                return
             self._update(obj)
+
+    def _flush(self) -> None:
+        try:
+            obj = self.Object
+            busy = _busy(obj)
+        except Exception:         # deleted meanwhile
+            self.pending = False
+            return
+        if busy:
+            self._later(self._flush, 20)
+            return
+        self.pending = False
+        self._update(obj)
 
     def onChanged(self, vobj: Any, prop: str) -> None:  # noqa: N802
         if not hasattr(self, "points"):
