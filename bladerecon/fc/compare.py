@@ -3,9 +3,11 @@
 
 Stage "analysis" of the pipeline (seed 000 §2.4 shape error; seed 001 §2 minimum distance).
 A nominal that is one non-rational B-spline face goes through the core's vectorised
-projection (:mod:`bladerecon.core.geometry.projection`); anything else through OpenCASCADE per point
-(:mod:`bladerecon.fc.occ_measure`). Sign: + where the point is outside the nominal
-(material in excess), − inside.
+projection (:mod:`bladerecon.core.geometry.projection`); any other shape face by face
+(:class:`bladerecon.fc.deviation.Nominal`: trimmed B-spline and analytic faces through the
+core, OpenCASCADE only for a face no core model covers); ``method`` then names the way of
+every face (``0:core-bspline+1:core-cone+...``). Sign: + where the point is outside the
+nominal (material in excess), − inside.
 """
 from __future__ import annotations
 
@@ -15,6 +17,7 @@ import numpy as np
 
 from bladerecon.core.geometry.bspline import evaluate_surface
 from bladerecon.core.errors import BladeReconError
+from bladerecon.core.geometry.orientation import outward_sign
 from bladerecon.core.geometry.projection import project_points_to_surface
 from bladerecon.core.geometry.spline import BSplineSurface
 
@@ -24,7 +27,7 @@ __all__ = ["Deviation", "deviation_to_nominal", "surface_samples", "outward_sign
 @dataclass(frozen=True)
 class Deviation:
     signed: np.ndarray   # (m,) mm, + outside the nominal
-    method: str          # "core-projection" | "occ"
+    method: str          # "core-projection", or per face "index:way" joined by "+"
 
 
 def surface_samples(surface: BSplineSurface, n_u: int = 400, n_v: int = 41) -> tuple[np.ndarray, np.ndarray]:
@@ -42,24 +45,6 @@ def surface_samples(surface: BSplineSurface, n_u: int = 400, n_v: int = 41) -> t
     uu, vv = np.meshgrid(u, v, indexing="ij")
     uv = np.column_stack([uu.ravel(), vv.ravel()])
     return uv, evaluate_surface(surface, uv[:, 0], uv[:, 1])
-
-
-def outward_sign(surface: BSplineSurface) -> float:
-    """+1 if S_u × S_v points out of a closed-in-u blade surface, −1 if it points in.
-
-    Majority vote over a grid: the normal should point away from the centroid of its own
-    iso-v section. (A blade section is not star-shaped, but most of it faces away.)
-    """
-    from bladerecon.core.geometry.bspline import surface_derivatives
-
-    u = np.linspace(*surface.u_domain, 64, endpoint=False)
-    v = np.linspace(*surface.v_domain, 9)
-    uu, vv = np.meshgrid(u, v, indexing="ij")
-    d = surface_derivatives(surface, uu.ravel(), vv.ravel(), 1)
-    p = d[:, 0, 0].reshape(64, 9, 3)
-    n = np.cross(d[:, 1, 0], d[:, 0, 1]).reshape(64, 9, 3)
-    away = np.einsum("ijk,ijk->ij", n, p - p.mean(axis=0, keepdims=True))
-    return 1.0 if np.mean(away > 0) >= 0.5 else -1.0
 
 
 def _single_bspline_face(shape):
@@ -83,7 +68,6 @@ def deviation_to_nominal(points: np.ndarray, nominal) -> Deviation:
     """Signed distance (mm) of each point to the nominal (a path or a Part.Shape)."""
     from bladerecon.fc.convert import from_part_surface
     from bladerecon.fc.export import read_shape
-    from bladerecon.fc.occ_measure import occ_distances
 
     shape = read_shape(nominal) if isinstance(nominal, (str, bytes)) or hasattr(nominal, "__fspath__") else nominal
     pts = np.asarray(points, dtype=float)
@@ -98,4 +82,8 @@ def deviation_to_nominal(points: np.ndarray, nominal) -> Deviation:
         return Deviation(sign * proj.signed, "core-projection")
     if not shape.Faces:
         raise BladeReconError("the nominal has no faces: export the blade surface or solid to STEP")
-    return Deviation(np.asarray(occ_distances(pts, shape, signed=True), float), "occ")
+    from bladerecon.fc.deviation import Nominal
+
+    nominal = Nominal(shape)
+    dev = nominal.measure(pts)
+    return Deviation(np.asarray(dev.signed, float), "+".join(nominal.methods))

@@ -3,15 +3,20 @@
 
 Issue 4 §1-2, 5. For every point the closest point on the nominal (any face of a STEP,
 IGES, BREP or FCStd shape) and the signed distance, + where material lies outside the
-nominal (the outward normal at the foot). Faces are measured in two ways and the closest
-foot over all faces wins:
+nominal (the outward normal at the foot):
 
-* an untrimmed, non-rational B-spline face (a blade surface as CAD writes it) goes through
-  the core's vectorised exact projection (seed 001 eq. 10 by Newton from a k-d tree start,
-  :mod:`bladerecon.core.geometry.projection`): ~1M points in a few seconds;
-* every other face (planes, cylinders, trimmed faces) through OpenCASCADE's
-  ``distToShape`` point by point, only for the points whose distance to the face's bounding
-  box is less than their best distance so far (a cap face is tried only near its end).
+* one untrimmed, non-rational B-spline face (a blade surface as CAD writes it) goes
+  through the core's vectorised exact projection (seed 001 eq. 10 by Newton from a k-d
+  tree start, :mod:`bladerecon.core.geometry.projection`): ~1M points in a few seconds;
+* any other shape face by face, vectorised too (:mod:`bladerecon.core.geometry.faces`):
+  B-spline faces restricted or trimmed by pcurves, planes, cylinders, cones, spheres, tori,
+  surfaces of revolution and extrusion, offset surfaces - each surface projected once, the
+  foot kept where it lies inside the face's trimming loops, else the nearest point of the
+  face's boundary edges (signed by the sum of the normals of the faces meeting there);
+  the closest foot over all faces wins;
+* a face no core model covers through OpenCASCADE's ``distToShape`` point by point, only
+  for the points whose distance to the face's bounding box is less than their best
+  distance so far. ``Nominal.face_methods`` names the way of every face.
 
 Alignment (:func:`bladerecon.core.analysis.alignment.best_fit`) uses the same measure as its
 ``project`` callback. Points far from every face - wrong units or frame - are refused with
@@ -99,82 +104,81 @@ def _core_surface(face: Any) -> BSplineSurface | None:
 
 
 class Nominal:
-    """A nominal shape ready for measuring: core B-spline faces and OCC faces (mm)."""
+    """A nominal shape ready for measuring (mm).
+
+    One untrimmed B-spline face (a blade surface as CAD writes it) is projected directly.
+    Any other shape goes face by face through :func:`bladerecon.core.geometry.faces.measure_faces`
+    (each face's surface as a core model with its trimming loops and boundary edges,
+    :func:`bladerecon.fc.nominal_faces.core_faces`); a face no core model covers is measured
+    by OpenCASCADE per point. ``face_methods`` says, per face, which way was used.
+    ``core`` lists the faces on B-spline surfaces as (index, surface, outward sign), ``occ``
+    the faces OpenCASCADE measures as (index, face, outward sign).
+    """
 
     def __init__(self, shape: Any, name: str = "nominal"):
-        from bladerecon.fc.compare import outward_sign
+        from bladerecon.core.geometry.orientation import outward_sign
         from bladerecon.fc.occ_measure import _shape_outward_signs
 
-        self.shape, self.name = shape, name
+        self.name = name
         faces = list(shape.Faces)
         if not faces:
             raise BladeReconError(f"{name}: the nominal holds no faces: export the blade surface, shell or solid")
-        occ_signs = _shape_outward_signs(shape, faces)
-        self.core: list[tuple[int, BSplineSurface, float]] = []
-        self.occ: list[tuple[int, Any, float]] = []
-        for k, (face, osign) in enumerate(zip(faces, occ_signs)):
-            surf = _core_surface(face)
-            if surf is None:
-                self.occ.append((k, face, float(osign)))
-                continue
-            if surf.u_periodic:
-                sign = outward_sign(surf)                # a closed blade surface: normal out of the blade
-            else:
-                sign = (-1.0 if face.Orientation == "Reversed" else 1.0) * float(osign)
-            self.core.append((k, surf, sign))
         box = shape.BoundBox
         self.size = float(np.hypot(np.hypot(box.XLength, box.YLength), box.ZLength))
         self.centre = np.array([box.Center.x, box.Center.y, box.Center.z])
+        self.core: list[tuple[int, BSplineSurface, float]] = []
+        self.occ: list[tuple[int, Any, float]] = []
+        self.faces: list = []
+        self.edges: list = []
+        self.seconds: dict = {}
+        surf = _core_surface(faces[0]) if len(faces) == 1 else None
+        if surf is not None:                      # one untrimmed B-spline face: the direct projection
+            self.shape = shape
+            if surf.u_periodic:
+                sign = outward_sign(surf)                # a closed blade surface: normal out of the blade
+            else:
+                sign = (-1.0 if faces[0].Orientation == "Reversed" else 1.0) * float(_shape_outward_signs(shape, faces)[0])
+            self.core.append((0, surf, sign))
+            self.face_methods: tuple[str, ...] = ("core-projection",)
+            self.n_faces = 1
+            return
+        from bladerecon.fc.nominal_faces import core_faces
+
+        shape = _closed_shape(shape)
+        self.shape = shape
+        faces = list(shape.Faces)
+        occ_signs = _shape_outward_signs(shape, faces)
+        self.faces, self.edges = core_faces(shape, occ_signs, self.size)
+        for k, (f, face) in enumerate(zip(self.faces, faces)):
+            if f.model is None:
+                f.external = _occ_face_measurer(face, float(occ_signs[k]))
+                self.occ.append((k, face, float(occ_signs[k])))
+            elif f.method.startswith("core-bspline"):
+                self.core.append((k, f.model.surface, f.sign))
+        self.face_methods = tuple(f.method for f in self.faces)
         self.n_faces = len(faces)
+
+    @property
+    def methods(self) -> tuple[str, ...]:
+        """Per face ``index:method`` (one face on the direct path: ``core-projection``)."""
+        if not self.faces:
+            return self.face_methods
+        return tuple(f"{k}:{m}" for k, m in enumerate(self.face_methods))
 
     def measure(self, points: np.ndarray) -> PointDeviation:
         """Closest foot over all faces for each point (m, 3) mm."""
         P = np.asarray(points, dtype=float).reshape(-1, 3)
         m = len(P)
-        if len(self.core) == 1 and not self.occ:          # one B-spline face: nothing to choose between
+        if not self.faces:                                 # one B-spline face: nothing to choose between
             (k, surf, sign), = self.core
             pr = project_points_to_surface(surf, P)
             return PointDeviation(sign * pr.signed, pr.foot, sign * pr.normal, np.full(m, k), ("core-projection",),
                                   pr.u, pr.v)
-        best = np.full(m, np.inf)
-        signed, foot, normal = np.zeros(m), np.zeros((m, 3)), np.zeros((m, 3))
-        face = np.full(m, -1, dtype=int)
-        fu, fv = np.full(m, np.nan), np.full(m, np.nan)
-        methods = []
-        for k, surf, sign in self.core:
-            pr = project_points_to_surface(surf, P)
-            win = pr.distance < best
-            best[win], signed[win] = pr.distance[win], sign * pr.signed[win]
-            foot[win], normal[win], face[win] = pr.foot[win], sign * pr.normal[win], k
-            fu[win], fv[win] = pr.u[win], pr.v[win]
-            methods.append("core-projection")
-        for k, f, osign in self.occ:
-            self._measure_occ_face(P, k, f, osign, best, signed, foot, normal, face)
-            methods.append("occ")
-        on_occ = np.isin(face, [k for k, _, _ in self.occ])
-        fu[on_occ], fv[on_occ] = np.nan, np.nan
-        return PointDeviation(signed, foot, normal, face, tuple(sorted(set(methods))), fu, fv)
+        from bladerecon.core.geometry.faces import measure_faces
 
-    @staticmethod
-    def _measure_occ_face(P, k, f, osign, best, signed, foot, normal, face) -> None:
-        from bladerecon.fc.occ_measure import _normal_at_foot
-
-        box = f.BoundBox
-        lo = np.array([box.XMin, box.YMin, box.ZMin])
-        hi = np.array([box.XMax, box.YMax, box.ZMax])
-        gap = np.linalg.norm(np.maximum(0.0, np.maximum(lo - P, P - hi)), axis=1)
-        for i in np.flatnonzero(gap < best):
-            point = FreeCAD.Vector(*P[i])
-            dist, pairs, infos = Part.Vertex(point).distToShape(f)
-            if dist >= best[i]:
-                continue
-            ft = pairs[0][1]
-            n, _ = _normal_at_foot(f, [f], infos[0], ft)
-            n = np.array([n.x, n.y, n.z]) * osign
-            n /= max(np.linalg.norm(n), 1e-300)
-            off = P[i] - np.array([ft.x, ft.y, ft.z])
-            best[i], foot[i], normal[i], face[i] = dist, (ft.x, ft.y, ft.z), n, k
-            signed[i] = -dist if off @ n < 0 else dist
+        feet = measure_faces(P, self.faces, self.edges, None, tie_tol=1e-6 * max(self.size, 1.0))
+        self.seconds = feet.seconds
+        return PointDeviation(feet.signed, feet.foot, feet.normal, feet.face, self.methods, feet.u, feet.v)
 
     def projector(self):
         """``project`` callback for :func:`best_fit`: (foot, outward normal)."""
@@ -182,6 +186,49 @@ class Nominal:
             d = self.measure(P)
             return d.foot, d.normal
         return project
+
+
+def _closed_shape(shape: Any) -> Any:
+    """A compound of loose faces that sews into a closed shell (IGES) becomes a solid, outward."""
+    if shape.Solids or any(sh.isClosed() for sh in shape.Shells) or len(shape.Faces) < 2:
+        return shape
+    try:
+        sewn = shape.copy()
+        sewn.sewShape()
+        shells = sewn.Shells
+        if len(shells) != 1 or not shells[0].isClosed() or len(shells[0].Faces) != len(shape.Faces):
+            return shape
+        solid = Part.Solid(shells[0])
+        if solid.Volume < 0:
+            solid.reverse()
+        return solid if solid.isValid() else shape
+    except Exception:                                      # noqa: BLE001 - unsewable: measure as given
+        return shape
+
+
+def _occ_face_measurer(f: Any, osign: float):
+    """OpenCASCADE per point for one face: (P, best) -> distance (inf where not nearer than
+    best), signed, foot, outward normal."""
+    from bladerecon.fc.occ_measure import _normal_at_foot
+
+    def measure(P: np.ndarray, best: np.ndarray):
+        m = len(P)
+        dist, signed = np.full(m, np.inf), np.zeros(m)
+        foot, normal = np.zeros((m, 3)), np.zeros((m, 3))
+        for i in range(m):
+            d, pairs, infos = Part.Vertex(FreeCAD.Vector(*P[i])).distToShape(f)
+            if d >= best[i]:
+                continue
+            ft = pairs[0][1]
+            n, _ = _normal_at_foot(f, [f], infos[0], ft)
+            n = np.array([n.x, n.y, n.z]) * osign
+            n /= max(np.linalg.norm(n), 1e-300)
+            off = P[i] - np.array([ft.x, ft.y, ft.z])
+            dist[i], foot[i], normal[i] = d, (ft.x, ft.y, ft.z), n
+            signed[i] = -d if off @ n < 0 else d
+        return dist, signed, foot, normal
+
+    return measure
 
 
 def load_nominal(nominal: Any) -> Nominal:
