@@ -112,6 +112,36 @@ def test_iges_nominal_through_the_core_too(files, spec):
     assert np.abs(nominal.measure(P).signed - occ_distances(P, nominal.shape, signed=True)).max() < 1e-4
 
 
+# --------------------------------------------------------------------------- signs
+def test_signs_agree_with_the_solid(nominal, points, measured):
+    """+ outside: against Part.Shape.isInside (away from the surface, where OCC's own
+    classifier is sure: it errs by microns) and against the ray-parity test on the
+    tessellation (farther off than its deflection)."""
+    ours, _ = measured
+    far = np.flatnonzero(np.abs(ours.signed) > 5e-3)[:300]          # isInside: ~10 ms a point
+    inside = np.array([nominal.shape.isInside(V(*p), 1e-9, True) for p in points[far]])
+    assert np.array_equal(ours.signed[far] < 0, inside)
+    clear = np.abs(ours.signed) > 2e-4 * nominal.size
+    assert np.array_equal(ours.signed[clear] < 0, nominal.inside(points[clear]))
+
+
+def test_tied_feet_are_signed_by_the_solid():
+    """A solid with one face oriented wrongly (as a bad export may have it): where that
+    face's foot ties with a right one, the solid decides; elsewhere each face's normal does."""
+    box = Part.makeBox(10, 10, 10)
+    nominal = Nominal(box)
+    top = next(f for f in nominal.faces if abs(f.box[0][2] - 10) < 1e-6 and abs(f.box[1][2] - 10) < 1e-6)
+    top.sign = -top.sign                                              # the top face now points in
+    # inside, equally far from the top (z = 10) and the side x = 10: a tie of opposite signs
+    tie = np.array([[8.0, 5.0, 8.0], [9.5, 3.0, 9.5]])
+    d = nominal.measure(tie)
+    assert np.all(d.signed < 0)
+    assert np.allclose(np.abs(d.signed), [2.0, 0.5])
+    # no tie: the (wrong) face normal is what signs it - the solid is only asked on ties
+    alone = nominal.measure(np.array([[5.0, 5.0, 9.0]]))
+    assert alone.signed[0] == pytest.approx(1.0)
+
+
 # --------------------------------------------------------------------------- the face kinds
 def _primitives():
     bs = Part.BSplineSurface()

@@ -12,8 +12,8 @@ nominal (the outward normal at the foot):
   B-spline faces restricted or trimmed by pcurves, planes, cylinders, cones, spheres, tori,
   surfaces of revolution and extrusion, offset surfaces - each surface projected once, the
   foot kept where it lies inside the face's trimming loops, else the nearest point of the
-  face's boundary edges (signed by the sum of the normals of the faces meeting there);
-  the closest foot over all faces wins;
+  face's boundary edges; the closest foot over all faces wins; where the feet of the two
+  signs tie (a thin edge) or the foot is a vertex, the nominal solid decides the sign;
 * a face no core model covers through OpenCASCADE's ``distToShape`` point by point, only
   for the points whose distance to the face's bounding box is less than their best
   distance so far. ``Nominal.face_methods`` names the way of every face.
@@ -46,6 +46,7 @@ FreeCAD, Part = import_freecad()
 _NEAR = 0.01                # median distance under this fraction of the nominal's size: in place
 _FAR = 0.1                  # ... above this: another frame (or units)
 _UNIT_CHECK_POINTS = 500    # points used for that check
+INSIDE_DEFLECTION = 1e-4    # tessellation of the solid for signs the normals cannot settle, x size
 _SCALES = ((1 / 25.4, "the points look like inches: multiply them by 25.4"),
            (25.4, "the points look like millimetres against a nominal in inches: convert the nominal to mm"),
            (1000.0, "the points look like micrometres: divide them by 1000"),
@@ -130,6 +131,8 @@ class Nominal:
         self.occ: list[tuple[int, Any, float]] = []
         self.faces: list = []
         self.edges: list = []
+        self._inside: Any = None
+        self._solid: Any = None
         self.seconds: dict = {}
         surf = _core_surface(faces[0]) if len(faces) == 1 else None
         if surf is not None:                      # one untrimmed B-spline face: the direct projection
@@ -156,6 +159,7 @@ class Nominal:
             elif f.method.startswith("core-bspline"):
                 self.core.append((k, f.model.surface, f.sign))
         self.face_methods = tuple(f.method for f in self.faces)
+        self._solid = shape if (shape.Solids or any(sh.isClosed() for sh in shape.Shells)) else None
         self.n_faces = len(faces)
 
     @property
@@ -164,6 +168,15 @@ class Nominal:
         if not self.faces:
             return self.face_methods
         return tuple(f"{k}:{m}" for k, m in enumerate(self.face_methods))
+
+    def inside(self, points: np.ndarray) -> np.ndarray:
+        """True where points lie inside the nominal solid (ray parity on a tessellation made
+        once, on the first call: linear deflection ``INSIDE_DEFLECTION`` of the size)."""
+        if self._inside is None:
+            from bladerecon.fc.nominal_faces import solid_inside
+
+            self._inside = solid_inside(self._solid, INSIDE_DEFLECTION * max(self.size, 1.0))
+        return self._inside(points)
 
     def measure(self, points: np.ndarray) -> PointDeviation:
         """Closest foot over all faces for each point (m, 3) mm."""
@@ -176,7 +189,9 @@ class Nominal:
                                   pr.u, pr.v)
         from bladerecon.core.geometry.faces import measure_faces
 
-        feet = measure_faces(P, self.faces, self.edges, None, tie_tol=1e-6 * max(self.size, 1.0))
+        scale = max(self.size, 1.0)
+        feet = measure_faces(P, self.faces, self.edges, self.inside if self._solid is not None else None,
+                             tie_tol=1e-6 * scale, inside_tol=2 * INSIDE_DEFLECTION * scale)
         self.seconds = feet.seconds
         return PointDeviation(feet.signed, feet.foot, feet.normal, feet.face, self.methods, feet.u, feet.v)
 

@@ -45,7 +45,8 @@ from bladerecon.core.geometry.trimming import UVRegion
 
 from bladerecon.fc.freecad_env import import_freecad
 
-__all__ = ["core_faces", "surface_model", "build_multiface_nominal", "write_multiface_nominal", "PCURVE_TOL"]
+__all__ = ["core_faces", "surface_model", "solid_inside", "build_multiface_nominal", "write_multiface_nominal",
+           "PCURVE_TOL"]
 
 FreeCAD, Part = import_freecad()
 
@@ -451,3 +452,26 @@ def write_multiface_nominal(folder: str | os.PathLike, spec: Any) -> dict[str, s
     solid.exportBrep(out["brep"])
     return out
 
+
+# --------------------------------------------------------------------------- inside the solid
+def solid_inside(shape: Any, deflection: float):
+    """``inside(points) -> bool`` against ``shape`` (a solid or closed shell): ray parity
+    (:class:`~bladerecon.core.geometry.inside.MeshInside`) on one tessellation of linear
+    deflection ``deflection`` mm (MeshPart's, else OCC's own), or None without a shape."""
+    from bladerecon.core.geometry.inside import MeshInside
+
+    if shape is None:
+        return None
+    try:
+        import MeshPart
+
+        mesh = MeshPart.meshFromShape(Shape=shape, LinearDeflection=deflection, AngularDeflection=0.5,
+                                      Relative=False)
+        points, facets = mesh.Topology
+    except Exception:                      # noqa: BLE001 - no MeshPart: OCC's own tessellation
+        points, facets = shape.tessellate(deflection)
+    V = np.array([(p.x, p.y, p.z) for p in points], float)
+    T = np.array(facets, dtype=np.int64).reshape(-1, 3)
+    if len(T) == 0:
+        return None
+    return MeshInside(V, T).contains

@@ -118,8 +118,14 @@ class _Best:
 
 def measure_faces(P: np.ndarray, faces: list[Face], edges: list[Edge],
                   inside: Callable[[np.ndarray], np.ndarray] | None = None,
-                  tie_tol: float = 1e-6, clock: Callable[[], float] | None = None) -> FaceFeet:
-    """Closest foot on the faces for each point (m, 3) mm; see the module doc."""
+                  tie_tol: float = 1e-6, inside_tol: float = 0.0,
+                  clock: Callable[[], float] | None = None) -> FaceFeet:
+    """Closest foot on the faces for each point (m, 3) mm; see the module doc.
+
+    ``inside`` (points -> bool) signs the points whose feet tie or sit on a vertex, if they
+    are farther than ``inside_tol`` (the inside test's own uncertainty: a tessellation's
+    deflection) from the faces; nearer ones keep the sign of their foot's normals.
+    """
     import time
 
     clock = clock or time.perf_counter
@@ -202,7 +208,7 @@ def measure_faces(P: np.ndarray, faces: list[Face], edges: list[Edge],
     decided = np.zeros(m, dtype=bool)
     if inside is not None:
         tie = np.abs(best.pos - best.neg) <= tie_tol
-        ask = np.flatnonzero((tie | best.vertex) & np.isfinite(best.dist) & (best.dist > 0))
+        ask = np.flatnonzero((tie | best.vertex) & np.isfinite(best.dist) & (best.dist > inside_tol))
         if ask.size:
             inner = inside(P[ask])
             best.signed[ask] = np.where(inner, -best.dist[ask], best.dist[ask])
