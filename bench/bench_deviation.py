@@ -21,6 +21,16 @@ depend on load: the load average at the start of each row is printed beside it. 
 measurement is then repeated (``--repeat``, 5 runs in all by default; a fresh ``Nominal``
 and no cached start grid each time, the same points) and every run is listed, so that the
 spread of this shared machine shows beside the first run.
+
+``--nominal multiface`` (or ``all``, the default) adds the multi-face nominal of
+:mod:`bladerecon.samples.multiface` (four trimmed B-spline airfoil faces, a hub cap on a
+surface of revolution, a tip cap on a cone; written to STEP in a temporary folder): 10k,
+100k and 1M points spread evenly over its area (on its tessellation) and pushed off by
+N(0, 0.05 mm), measured end to end (``load_nominal`` + ``measure_deviation``) with the time
+of every stage (read and convert the faces, unit check, surfaces, in-face tests, edges,
+the solid's tessellation and ray test), beside OpenCASCADE's ``Vertex.distToShape`` (on the
+compound of the faces: on the solid it gives 0 inside) on 1000 of the points, scaled to N, and the largest |ours - OCC| there. It writes
+``multiface.md`` / ``.json`` into ``--out`` (default ``bench/results``).
 """
 from __future__ import annotations
 
@@ -176,23 +186,115 @@ def markdown(m: dict, rows: list[dict]) -> str:
     return "\n".join(lines) + "\n"
 
 
+# --------------------------------------------------------------------------- the multi-face nominal
+MULTIFACE_SIZES = (10_000, 100_000, 1_000_000)
+MULTIFACE_OCC_SAMPLE = 1000
+
+
+def area_points(shape, m: int, rng: np.random.Generator, spread: float = 0.05) -> np.ndarray:
+    """m points spread evenly over the shape's area (on a fine tessellation), pushed off
+    along the triangle normals by N(0, spread)."""
+    import MeshPart
+
+    mesh = MeshPart.meshFromShape(Shape=shape, LinearDeflection=0.005, AngularDeflection=0.2, Relative=False)
+    pts, facets = mesh.Topology
+    V = np.array([(p.x, p.y, p.z) for p in pts])
+    T = np.array(facets)
+    A, B, C = V[T[:, 0]], V[T[:, 1]], V[T[:, 2]]
+    n = np.cross(B - A, C - A)
+    area = np.linalg.norm(n, axis=1)
+    n /= np.maximum(area, 1e-300)[:, None]
+    k = rng.choice(len(T), m, p=area / area.sum())
+    r1, r2 = np.sqrt(rng.random(m)), rng.random(m)
+    P = (1 - r1)[:, None] * A[k] + (r1 * (1 - r2))[:, None] * B[k] + (r1 * r2)[:, None] * C[k]
+    return P + n[k] * rng.normal(scale=spread, size=(m, 1))
+
+
+def bench_multiface(sizes, rng: np.random.Generator, tmp: Path) -> dict:
+    from bladerecon.fc.deviation import measure_deviation
+    from bladerecon.fc.nominal_faces import write_multiface_nominal
+    from bladerecon.samples.multiface import multiface_spec
+
+    files = write_multiface_nominal(tmp, multiface_spec())
+    shape = Part.read(files["step"])
+    P_all = area_points(shape, max(sizes), rng)
+    rows = []
+    for m in sizes:
+        P = P_all[:m]
+        projection._cache.clear()                       # nothing kept from the run before
+        load = os.getloadavg()[0]
+        wall, cpu = time.perf_counter(), cpu_seconds()
+        nominal = load_nominal(files["step"])
+        t_load = time.perf_counter() - wall
+        res = measure_deviation(P, nominal, "none")
+        wall, cpu = time.perf_counter() - wall, cpu_seconds() - cpu
+        sample = P[:MULTIFACE_OCC_SAMPLE]
+        t = time.perf_counter()
+        faces = Part.Compound(shape.Faces)             # the solid itself: 0 for points inside it
+        occ = np.array([Part.Vertex(FreeCAD.Vector(*p)).distToShape(faces)[0] for p in sample])
+        per_point = (time.perf_counter() - t) / len(sample)
+        diff = np.abs(np.abs(res.deviation.signed[:len(sample)]) - occ)
+        stages = {"load (read + faces)": t_load, "unit check": res.seconds["check"], **{
+            k: float(v) for k, v in nominal.seconds.items()}, "measure (all)": res.seconds["measure"]}
+        rows.append({"points": m, "load_avg": load, "wall_s": wall, "cpu_s": cpu, "stages_s": stages,
+                     "occ_ms_per_point": per_point * 1e3, "occ_scaled_s": per_point * m,
+                     "ratio": per_point * m / wall, "max_abs_diff_mm": float(diff.max()),
+                     "methods": list(nominal.face_methods), "edge_feet": int(np.isnan(res.deviation.u).sum())})
+        print(f"multi-face nominal, {m:,} points: {wall:.2f} s wall ({cpu:.2f} s CPU, load {load:.1f}); "
+              + ", ".join(f"{k} {v:.3f}" for k, v in stages.items()), file=sys.stderr)
+    return {"faces": rows[0]["methods"], "rows": rows}
+
+
+def multiface_markdown(m: dict, result: dict) -> str:
+    lines = [f"Deviation against the multi-face nominal ({m['date']}, {m['cpus']} CPUs, FreeCAD {m['freecad']}): "
+             f"faces {', '.join(result['faces'])}. End to end = load_nominal (read the STEP, convert the faces) "
+             f"+ measure_deviation. Target: 1 000 000 points in under {TARGET_S:.0f} s.", "",
+             "| N | load | end to end wall s | CPU s | OCC distToShape per point (on 1000) | OCC scaled to N, s "
+             "| OCC / ours | max abs diff vs OCC, mm | feet on edges |",
+             "|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    for r in result["rows"]:
+        lines.append(f"| {r['points']:,} | {r['load_avg']:.1f} | {r['wall_s']:.2f} | {r['cpu_s']:.2f} | "
+                     f"{r['occ_ms_per_point']:.2f} ms | {r['occ_scaled_s']:.0f} | {r['ratio']:.0f}x | "
+                     f"{r['max_abs_diff_mm']:.1e} | {r['edge_feet']:,} |")
+    names = list(result["rows"][0]["stages_s"])
+    lines += ["", "Time of each stage of the end-to-end run, s:", "",
+              "| N | " + " | ".join(names) + " |", "|---:|" + "---:|" * len(names)]
+    for r in result["rows"]:
+        lines.append(f"| {r['points']:,} | " + " | ".join(f"{r['stages_s'][k]:.3f}" for k in names) + " |")
+    return "\n".join(lines) + "\n"
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--points", type=int, default=1_000_000)
     ap.add_argument("--repeat", type=int, default=5, help="runs of ours per blade (the first is in the table)")
+    ap.add_argument("--nominal", choices=("sample", "multiface", "all"), default="all",
+                    help="the single-face blades, the multi-face nominal, or both")
+    ap.add_argument("--sizes", type=int, nargs="+", default=list(MULTIFACE_SIZES),
+                    help="point counts on the multi-face nominal")
+    ap.add_argument("--out", type=Path, default=RESULTS, help="folder for the result files")
     args = ap.parse_args(argv)
     rng = np.random.default_rng(2026)
-    rows = [bench_blade("sample nominal", ROOT / "resources" / "sample" / "nominal.step", args.points, rng, args.repeat)]
-    with tempfile.TemporaryDirectory() as tmp:
-        r37 = rotor37_step(Path(tmp))
-        if r37 is not None:
-            rows.append(bench_blade("NASA Rotor 37", r37, args.points, rng, args.repeat))
     m = machine()
-    text = markdown(m, rows)
-    print(text)
-    RESULTS.mkdir(exist_ok=True)
-    (RESULTS / "deviation.md").write_text(text)
-    (RESULTS / "deviation.json").write_text(json.dumps({"machine": m, "rows": rows}, indent=2))
+    args.out.mkdir(parents=True, exist_ok=True)
+    if args.nominal in ("sample", "all"):
+        rows = [bench_blade("sample nominal", ROOT / "resources" / "sample" / "nominal.step", args.points, rng,
+                            args.repeat)]
+        with tempfile.TemporaryDirectory() as tmp:
+            r37 = rotor37_step(Path(tmp))
+            if r37 is not None:
+                rows.append(bench_blade("NASA Rotor 37", r37, args.points, rng, args.repeat))
+        text = markdown(m, rows)
+        print(text)
+        (args.out / "deviation.md").write_text(text)
+        (args.out / "deviation.json").write_text(json.dumps({"machine": m, "rows": rows}, indent=2))
+    if args.nominal in ("multiface", "all"):
+        with tempfile.TemporaryDirectory() as tmp:
+            result = bench_multiface(sorted(args.sizes), np.random.default_rng(2027), Path(tmp))
+        text = multiface_markdown(m, result)
+        print(text)
+        (args.out / "multiface.md").write_text(text)
+        (args.out / "multiface.json").write_text(json.dumps({"machine": m, **result}, indent=2))
     return 0
 
 

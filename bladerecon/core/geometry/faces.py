@@ -101,11 +101,28 @@ class _Best:
         self.pos = np.full(m, np.inf)
         self.neg = np.full(m, np.inf)
 
+    def take_all(self, face_of: np.ndarray, signs: np.ndarray, c) -> None:
+        """The first candidates, for every point (nothing to compare with yet): the feet of
+        projection ``c`` where they lie in a face (``face_of`` >= 0)."""
+        hit = face_of >= 0
+        sign = np.where(hit, signs[np.maximum(face_of, 0)], 0.0)
+        self.dist = np.where(hit, c.distance, np.inf)
+        self.signed = sign * c.signed
+        self.foot = np.array(c.foot, dtype=float, copy=True)
+        self.normal = sign[:, None] * c.normal
+        self.face = np.where(hit, face_of, -1)
+        self.u = np.where(hit, c.u, np.nan)
+        self.v = np.where(hit, c.v, np.nan)
+        positive = self.signed >= 0
+        self.pos = np.where(hit & positive, self.dist, np.inf)
+        self.neg = np.where(hit & ~positive, self.dist, np.inf)
+
     def offer(self, idx, dist, signed, foot, normal, face, u=None, v=None, edge=False, vertex=None):
         """Candidates for points ``idx``: kept where closer than the best so far."""
         positive = signed >= 0
-        self.pos[idx] = np.where(positive, np.minimum(self.pos[idx], dist), self.pos[idx])
-        self.neg[idx] = np.where(~positive, np.minimum(self.neg[idx], dist), self.neg[idx])
+        p, n = idx[positive], idx[~positive]
+        self.pos[p] = np.minimum(self.pos[p], dist[positive])
+        self.neg[n] = np.minimum(self.neg[n], dist[~positive])
         win = dist < self.dist[idx]
         w = idx[win]
         self.dist[w], self.signed[w], self.foot[w], self.normal[w] = dist[win], signed[win], foot[win], normal[win]
@@ -138,12 +155,18 @@ def measure_faces(P: np.ndarray, faces: list[Face], edges: list[Edge],
     for k, f in enumerate(faces):
         if f.model is not None:
             groups.setdefault(f.model.key, []).append(k)
-    order = sorted(groups.values(), key=lambda ks: -sum(float(np.prod(faces[k].box[1] - faces[k].box[0] + 1e-9))
-                                                       for k in ks))
+    def size(k: int) -> float:
+        return float(np.prod(faces[k].box[1] - faces[k].box[0] + 1e-9))
+
+    order = sorted((sorted(ks, key=size, reverse=True) for ks in groups.values()),
+                   key=lambda ks: -sum(size(k) for k in ks))
     seen: list[tuple[int, np.ndarray, np.ndarray]] = []   # (face, points whose foot is not in it, surface distance)
+    seen_any = False                                     # the first group takes every point
     for ks in order:
         box = np.stack([np.min([faces[k].box[0] for k in ks], axis=0), np.max([faces[k].box[1] for k in ks], axis=0)])
-        idx = np.flatnonzero(_box_gap(P, box) < best.dist)
+        first = not seen_any
+        idx = np.arange(m) if first else np.flatnonzero(_box_gap(P, box) < best.dist)
+        seen_any = True
         if idx.size == 0:
             continue
         t0 = clock()
@@ -152,18 +175,46 @@ def measure_faces(P: np.ndarray, faces: list[Face], edges: list[Edge],
         lower = np.min([c.distance for c in cands], axis=0)           # the surface's distance
         t1 = clock()
         seconds["surfaces"] += t1 - t0
-        for k in ks:
-            f = faces[k]
-            nearest_in = np.zeros(idx.size, dtype=bool)
-            for c in cands:
-                inside_f = np.ones(idx.size, dtype=bool) if f.region is None else f.region.contains(c.u, c.v)
-                j = np.flatnonzero(inside_f)
-                best.offer(idx[j], c.distance[j], f.sign * c.signed[j], c.foot[j], f.sign * c.normal[j], k,
-                           c.u[j], c.v[j])
-                nearest_in |= inside_f & (c.distance <= lower)
-            if f.edges and not nearest_in.all():
-                out = ~nearest_in
-                seen.append((k, idx[out], lower[out]))
+        first_seen = len(seen)
+        if len(cands) == 1:
+            # one foot per point: the faces of one surface do not overlap, so a foot inside
+            # one face is tested against no other
+            c = cands[0]
+            open_ = np.arange(idx.size)
+            face_of = np.full(idx.size, -1, dtype=np.int64)
+            for k in ks:
+                f = faces[k]
+                inside_f = np.ones(open_.size, dtype=bool) if f.region is None else f.region.contains(c.u[open_],
+                                                                                                        c.v[open_])
+                face_of[open_[inside_f]] = k
+                open_ = open_[~inside_f]
+                if f.edges and open_.size:
+                    seen.append((k, idx[open_], lower[open_]))
+            if first:                                  # every point, nothing to beat: whole arrays
+                best.take_all(face_of, np.array([f.sign for f in faces]), c)
+            else:
+                j = np.flatnonzero(face_of >= 0)
+                sign = np.array([f.sign for f in faces])[face_of[j]]
+                best.offer(idx[j], c.distance[j], sign * c.signed[j], c.foot[j], sign[:, None] * c.normal[j],
+                           face_of[j], c.u[j], c.v[j])
+        else:
+            for k in ks:
+                f = faces[k]
+                nearest_in = np.zeros(idx.size, dtype=bool)
+                for c in cands:
+                    inside_f = np.ones(idx.size, dtype=bool) if f.region is None else f.region.contains(c.u, c.v)
+                    j = np.flatnonzero(inside_f)
+                    best.offer(idx[j], c.distance[j], f.sign * c.signed[j], c.foot[j], f.sign * c.normal[j], k,
+                               c.u[j], c.v[j])
+                    nearest_in |= inside_f & (c.distance <= lower)
+                if f.edges and not nearest_in.all():
+                    out = ~nearest_in
+                    seen.append((k, idx[out], lower[out]))
+        # a face's boundary matters only where its surface comes nearer than the best so far
+        for n in range(first_seen, len(seen)):
+            k, i, low = seen[n]
+            keep = low < best.dist[i]
+            seen[n] = (k, i[keep], low[keep])
         seconds["in_face"] += clock() - t1
     # faces measured outside the core: their boundary is theirs
     t0 = clock()

@@ -115,15 +115,15 @@ class UVRegion:
         u, v = u.ravel(), v.ravel()
         out = np.zeros(u.size, dtype=bool)
         n_slabs = len(self.v_base)
-        for s in range(0, u.size, _CHUNK):
-            uc, vc = u[s:s + _CHUNK], v[s:s + _CHUNK]
+        u0, u1, v0, v1 = self.bounds
+        near = np.flatnonzero((u >= u0) & (u <= u1) & (v >= v0) & (v <= v1))   # NaN compares False
+        for s in range(0, near.size, _CHUNK):
+            idx = near[s:s + _CHUNK]
+            uc, vc = u[idx], v[idx]
             slab = np.searchsorted(self.slab_v, vc, side="right") - 1
-            ok = (slab >= 0) & (slab < n_slabs) & (uc >= self.bounds[0]) & (uc <= self.bounds[1])
-            idx = np.flatnonzero(ok)
-            if idx.size == 0:
-                continue
-            sl = slab[idx]
-            cross = self.u_at[sl] + (vc[idx] - self.v_base[sl])[:, None] * self.du_dv[sl]
-            right = np.count_nonzero(cross > uc[idx, None], axis=1)      # nan compares False
-            out[s + idx] = (right & 1) == 1
+            ok = (slab >= 0) & (slab < n_slabs)
+            idx, uc, vc, sl = idx[ok], uc[ok], vc[ok], slab[ok]
+            cross = self.u_at[sl] + (vc - self.v_base[sl])[:, None] * self.du_dv[sl]
+            right = np.count_nonzero(cross > uc[:, None], axis=1)      # nan compares False
+            out[idx] = (right & 1) == 1
         return out.reshape(shape)
