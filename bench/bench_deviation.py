@@ -29,8 +29,9 @@ surface of revolution, a tip cap on a cone; written to STEP in a temporary folde
 N(0, 0.05 mm), measured end to end (``load_nominal`` + ``measure_deviation``) with the time
 of every stage (read and convert the faces, unit check, surfaces, in-face tests, edges,
 the solid's tessellation and ray test), beside OpenCASCADE's ``Vertex.distToShape`` (on the
-compound of the faces: on the solid it gives 0 inside) on 1000 of the points, scaled to N, and the largest |ours - OCC| there. It writes
-``multiface.md`` / ``.json`` into ``--out`` (default ``bench/results``).
+compound of the faces: on the solid it gives 0 inside) on 1000 of the points, scaled to N,
+and the largest |ours - OCC| there. It writes ``multiface.md`` / ``.json`` into ``--out``
+(default ``bench/results``).
 """
 from __future__ import annotations
 

@@ -140,7 +140,8 @@ class Nominal:
             if surf.u_periodic:
                 sign = outward_sign(surf)                # a closed blade surface: normal out of the blade
             else:
-                sign = (-1.0 if faces[0].Orientation == "Reversed" else 1.0) * float(_shape_outward_signs(shape, faces)[0])
+                sign = ((-1.0 if faces[0].Orientation == "Reversed" else 1.0)
+                        * float(_shape_outward_signs(shape, faces)[0]))
             self.core.append((0, surf, sign))
             self.face_methods: tuple[str, ...] = ("core-projection",)
             self.n_faces = 1

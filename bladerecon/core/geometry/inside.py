@@ -93,7 +93,8 @@ class MeshInside:
             pt = np.repeat(np.arange(rows.size), cnt)
             off = np.arange(cnt.sum()) - np.repeat(np.cumsum(cnt) - cnt, cnt)
             tri = g.tri[np.repeat(g.start[c], cnt) + off]
-            crossings[rows] += np.bincount(pt, weights=self._hits(P[rows][pt], tri, g), minlength=rows.size).astype(np.int64)
+            hits = self._hits(P[rows][pt], tri, g)
+            crossings[rows] += np.bincount(pt, weights=hits, minlength=rows.size).astype(np.int64)
             s = e
         return (crossings & 1) == 1
 
