@@ -215,3 +215,18 @@ def test_point_in_face_is_the_even_odd_rule():
     want = even_odd(loops[0], P) ^ even_odd(loops[1], P)
     assert np.array_equal(region.contains(P[:, 0], P[:, 1]), want)
     assert np.array_equal(region.contains(P[:, 0] + 20.0, P[:, 1]), want)   # two periods on
+
+
+def test_a_face_no_core_model_covers_goes_to_occ_and_says_so():
+    """A rational B-spline face (a NURBS sphere patch) is measured by OCC per point, the
+    cap (a plane made a B-spline) by the core; the methods say which, and the distances
+    equal OCC's."""
+    cut = Part.makeSphere(6).common(Part.makeBox(20, 20, 20, V(-10, -10, 2)))
+    nurbs = cut.toNurbs()
+    nominal = Nominal(nurbs, "nurbs")
+    methods = dict(enumerate(nominal.face_methods))
+    assert sorted(m.split(" ")[0] for m in methods.values()) == ["core-bspline", "occ"]
+    assert [k for k, _, _ in nominal.occ] == [k for k, m in methods.items() if m.startswith("occ")]
+    assert all(f"{k}:{m}" in nominal.methods for k, m in methods.items())
+    P = np.random.default_rng(4).uniform([-8, -8, 0], [8, 8, 8], (150, 3))
+    assert np.abs(nominal.measure(P).signed - occ_distances(P, nominal.shape, signed=True)).max() < 1e-6

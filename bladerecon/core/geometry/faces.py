@@ -240,7 +240,7 @@ def measure_faces(P: np.ndarray, faces: list[Face], edges: list[Edge],
         if idx.size == 0:
             continue
         t, foot, dist, at_end = edge.model.project(P[idx])
-        keep = np.flatnonzero(dist < np.minimum(best.dist[idx], np.minimum(best.pos[idx], best.neg[idx]) + tie_tol))
+        keep = np.flatnonzero(dist <= best.dist[idx] + tie_tol)          # a tie of signs counts too
         if keep.size == 0:
             continue
         idx, t, foot, dist, at_end = idx[keep], t[keep], foot[keep], dist[keep], at_end[keep]
