@@ -38,10 +38,11 @@ def test_known_outward_and_inward_offsets_on_the_sample_nominal(fc):
     assert np.abs(dev.signed - offset).max() < 1e-3 * 0.5          # nominal is within 0.25 µm of the truth
 
 
-def test_occ_path_for_other_shapes_uses_the_same_sign(fc):
+def test_planar_faces_in_closed_form_with_the_same_sign(fc):
+    """A box: six planes measured in closed form (not OCC per point), signed outward."""
     compare, Part = fc
     box = Part.makeBox(10, 10, 10)
     pts = np.array([[5.0, 5.0, 10.5], [5.0, 5.0, 9.0], [-0.25, 5.0, 5.0]])
     dev = compare.deviation_to_nominal(pts, box)
-    assert dev.method == "occ"
+    assert dev.method == "+".join(f"{k}:core-plane" for k in range(6))
     assert np.allclose(dev.signed, [0.5, -1.0, 0.25], atol=1e-9)

@@ -114,13 +114,16 @@ def sample_nominal():
 
 
 def test_solid_nominal_uses_every_face(sample_nominal, tmp_path):
-    """Blade face through the core, planar caps through OCC: equal to OCC over the solid."""
+    """Blade face through the core projector, planar caps in closed form (no face left to OCC
+    per point): equal to OCC over the solid."""
     from bladerecon.fc.export import make_solid
 
     surface = sample_nominal.core[0][1]
     solid = make_solid(surface)
     nominal = load_nominal(solid)
-    assert len(nominal.core) == 1 and len(nominal.occ) == 2
+    assert len(nominal.core) == 1 and len(nominal.occ) == 0
+    methods = nominal.face_methods
+    assert methods.count("core-plane") == 2 and not any("occ" in m for m in methods), methods
     P = near_points(surface, 150, np.random.default_rng(5), le_share=0.1)
     ours = nominal.measure(P)
     occ = occ_distances(P, solid, signed=True)
