@@ -123,10 +123,11 @@ def multiface_points(spec: MultifaceSpec, m: int, seed: int = 0, spread: float =
 
     Half are spread over the airfoil (uniform in u, v over the surface, so some lie beyond
     the hub and the tip), pushed off along the normal by N(0, ``spread``); a quarter sit
-    round the LE and TE (u near the edge strips, larger offsets, so that feet land on both
-    flanks, the edge strip and the face joints); a quarter lie near the hub and tip caps
-    (inside the section outline and a little beyond it, at radii from 2 mm inside to 2 mm
-    outside the cap).
+    round the LE and TE (u near the edge strips, offsets from 0.6 mm in to 1.5 mm out, so
+    that feet land on both flanks, the edge strip and the face joints); a quarter lie near
+    the hub and tip caps (blends of two section points: mostly inside the outline, some
+    beyond it or off the concave pressure side, at radii from 2 mm inside to 2 mm outside
+    the cap). Far points on purpose: the hardest case for the projection, not a scan's.
     """
     from bladerecon.core.geometry.bspline import surface_derivatives
 
