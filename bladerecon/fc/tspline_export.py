@@ -20,7 +20,7 @@ from bladerecon.core.surface.tspline import BezierPatch
 from bladerecon.fc.freecad_env import import_freecad
 
 __all__ = ["patch_surface", "patch_faces", "sew_patches", "occ_evaluate", "shell_gaps", "write_tspline_step",
-           "make_tspline_feature", "seam_check", "free_edges"]
+           "make_tspline_feature", "add_tspline_feature", "seam_check", "free_edges"]
 
 FreeCAD, Part = import_freecad()
 
@@ -185,7 +185,14 @@ def make_tspline_feature(doc: Any, path: str, tolerance: float, zmap: bool = Fal
 
     _, patches, summary = fit_point_file(path, tolerance, zmap=zmap,
                                          say=lambda m: FreeCAD.Console.PrintMessage(f"BladeRecon: {m}\n"))
-    shell = sew_patches(patch_faces(patches))
+    obj = add_tspline_feature(doc, path, sew_patches(patch_faces(patches)), summary)
+    doc.recompute()
+    return obj
+
+
+def add_tspline_feature(doc: Any, path: str, shell: Any, summary: dict) -> Any:
+    """The ``TSplineSurface`` Part::Feature holding ``shell``, labelled with the fit summary
+    of :func:`~bladerecon.core.surface.tspline_job.fit_point_file` (control points, errors, mm)."""
     obj = doc.addObject("Part::Feature", "TSplineSurface")
     obj.Shape = shell
     obj.Label = f"T-spline ({summary['control_points']} control points)"
@@ -193,5 +200,4 @@ def make_tspline_feature(doc: Any, path: str, tolerance: float, zmap: bool = Fal
     obj.Label2 = (f"{os.path.basename(path)}: {summary['control_points']} control points, "
                   f"{summary['refinements']} refinements, max {summary['max']:.4g} mm, "
                   f"mean {summary['mean']:.4g} mm, {len(shell.Faces)} Bézier faces{state}")
-    doc.recompute()
     return obj

@@ -30,7 +30,7 @@ def fit_tspline_into_document(path: str, tolerance: float):
     the foreground (``make_tspline_feature``).
     """
     from bladerecon.core.surface.tspline_job import fit_point_file
-    from bladerecon.fc.tspline_export import patch_faces, sew_patches
+    from bladerecon.fc.tspline_export import add_tspline_feature, patch_faces, sew_patches
 
     said: list[str] = []
 
@@ -57,13 +57,7 @@ def fit_tspline_into_document(path: str, tolerance: float):
     try:
         FreeCADGui.doCommand(f"# import bladerecon.fc.tspline_export; bladerecon.fc.tspline_export."
                              f"make_tspline_feature(App.ActiveDocument, {path!r}, {float(tolerance)!r})")
-        obj = doc.addObject("Part::Feature", "TSplineSurface")
-        obj.Shape = shell
-        obj.Label = f"T-spline ({summary['control_points']} control points)"
-        state = "" if summary["converged"] else f"; {summary['stop_reason']}"
-        obj.Label2 = (f"{os.path.basename(path)}: {summary['control_points']} control points, "
-                      f"{summary['refinements']} refinements, max {summary['max']:.4g} mm, "
-                      f"mean {summary['mean']:.4g} mm, {len(shell.Faces)} Bézier faces{state}")
+        obj = add_tspline_feature(doc, path, shell, summary)
         doc.recompute()
     except Exception as err:
         doc.abortTransaction()
