@@ -71,7 +71,9 @@ def test_the_test_nominal_is_a_real_cad_blade(files, spec):
         assert not all(_is_iso_line(f, e) for e in f.Edges)
     iges = Part.read(files["iges"])
     assert len(iges.Faces) == 6
-    assert abs(Part.read(files["brep"]).Volume - shape.Volume) < 1e-6 * shape.Volume
+    # the same solid: OCCT 7.8 (FreeCAD 1.0) integrates the STEP round trip's trimmed faces
+    # 8e-6 apart from the BREP's (7.6: < 1e-6); a missing or wrong face moves it by per cent
+    assert abs(Part.read(files["brep"]).Volume - shape.Volume) < 1e-4 * shape.Volume
 
 
 # --------------------------------------------------------------------------- through the core
