@@ -97,7 +97,8 @@ def read_until(read, word: bytes, what: str) -> bytes:
 
 def simulator(tmp: Path, *args) -> tuple[subprocess.Popen, Path]:
     link = tmp / "ttyBLADE"
-    proc = subprocess.Popen([sys.executable, "-m", "bladerecon", "simulate-instrument", "--link", str(link),
+    proc = subprocess.Popen([sys.executable, "-m", "bladerecon", "simulate-instrument", "--blade", "sample",
+                             "--link", str(link),
                              *map(str, args)], env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     end = time.monotonic() + SIMULATOR_START
     while not link.is_symlink():

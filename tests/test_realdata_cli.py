@@ -65,7 +65,7 @@ def test_fair_refuses_a_gross_move(tmp_path):
     assert r.returncode == 2
     assert "fairing refused: section 1, point 50 would move" in r.stderr
     r = run("reconstruct", tmp_path / "g.csv", "--fair-threshold", "0.01")
-    assert r.returncode == 2 and "add --fair" in r.stderr
+    assert r.returncode == 2 and "add one of them" in r.stderr and "--fair-surface" in r.stderr
 
 
 def test_poles_fits_non_grid_rows(tmp_path):

@@ -45,7 +45,8 @@ def add_options(r: argparse.ArgumentParser) -> None:
                    help="replace bad points (farther than --fair-threshold from a fair fit) of every section by "
                         "points on an auxiliary cubic (seed 001 §1.1); all are reported")
     g.add_argument("--fair-threshold", type=positive(), metavar="MM", default=None,
-                   help="with --fair: distance from the fair fit that makes a point bad (default 0.003)")
+                   help="with --fair or --fair-surface: distance from the fair fit that makes a point bad "
+                        "(default 0.003)")
     g.add_argument("--fair-limit", type=positive(), metavar="MM", default=None,
                    help="with --fair: refuse when a replacement would move a point farther (default 0.5)")
     g.add_argument("--slice", type=count(2, 100_000), metavar="N", help="input is an unordered cloud: N planes along --slice-axis")
@@ -84,8 +85,10 @@ def check_options(args: argparse.Namespace) -> None:
         raise BladeReconError("give one of --slice, --slice-at, --slice-radii")
     if (args.slab is not None or args.slab_keep) and not slicing_requested(args):
         raise BladeReconError("--slab applies to slicing a cloud: add --slice, --slice-at or --slice-radii")
-    if (args.fair_threshold is not None or args.fair_limit is not None) and not args.fair:
-        raise BladeReconError("--fair-threshold / --fair-limit apply with --fair: add --fair")
+    if args.fair_threshold is not None and not (args.fair or args.fair_surface):
+        raise BladeReconError("--fair-threshold applies with --fair or --fair-surface: add one of them")
+    if args.fair_limit is not None and not args.fair:
+        raise BladeReconError("--fair-limit applies with --fair: add --fair")
     if args.poles is not None and args.method != "approximate":
         raise BladeReconError("--poles applies to --method approximate (seed 003 non-grid fit): add --method approximate")
     if args.poles is not None and args.tolerance is not None:
@@ -248,7 +251,8 @@ def reconstruct_nongrid(pts: list[np.ndarray], span_axis, poles_text: str):
                            seconds=fit.seconds)
 
 
-def local_bicubic(rec, n_around: int, fair: bool = False, measured: list[np.ndarray] | None = None):
+def local_bicubic(rec, n_around: int, fair: bool = False, measured: list[np.ndarray] | None = None,
+                  threshold: float | None = None):
     """Seed 004's local bicubic surface through a grid sampled on the anchored section curves.
 
     The grid: every section curve at ``n_around`` common parameters (LE/TE anchored, as for
@@ -266,8 +270,8 @@ def local_bicubic(rec, n_around: int, fair: bool = False, measured: list[np.ndar
     grid = np.stack([evaluate_curve(a.curve, s_to_t(a, s, rec.s_te)) for a in rec.anchored])
     report = None
     if fair:
-        from bladerecon.core.surface.fairing import fair_grid_alternating
-        g = fair_grid_alternating(grid)
+        from bladerecon.core.surface.fairing import DEFAULT_THRESHOLD, fair_grid_alternating
+        g = fair_grid_alternating(grid, DEFAULT_THRESHOLD if threshold is None else threshold)
         if not g.converged:
             raise BladeReconError(
                 f"surface fairing did not settle in {g.passes} passes ({g.replaced_u} section points replaced): "

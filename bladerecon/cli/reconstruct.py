@@ -128,7 +128,7 @@ def _reconstruct(args: argparse.Namespace, say, step: str | None, report: str | 
         rec = reconstruct(pts, sections.span_axis, method=args.method, tolerance=args.tolerance,
                           first_point_is_measured=measured_start)
     if args.surface == "local-bicubic":
-        rec = realdata.local_bicubic(rec, args.patches_around, args.fair_surface, pts)
+        rec = realdata.local_bicubic(rec, args.patches_around, args.fair_surface, pts, args.fair_threshold)
     measured = np.concatenate(pts)
     if seg_info is None:
         proj = project_points_to_surface(rec.surface, measured, rec.point_u, rec.point_v)
