@@ -214,3 +214,27 @@ def test_robust_fit_ignores_a_damaged_leading_edge(nominal, on_surface):
     angle0, shift0 = transform_error(unworn.matrix @ M, P)     # what the noise alone allows
     assert angle < 1.5 * angle0 + 1e-4 and shift < 1.5 * shift0 + 0.0005, (angle, shift, angle0, shift0)
     assert np.all(fit.weights[worn] == 0) and np.mean(fit.weights[~worn] > 0) > 0.99
+
+
+def test_biweight_scale_and_weights_against_their_closed_form():
+    """Tukey's biweight with c = 4.685 σ̂, σ̂ the MAD made consistent for the normal distribution
+    (scipy's scale="normal": 1/Φ⁻¹(3/4) = 1.4826): on 200 000 normal residuals of known σ the
+    cut-off is 4.685 σ within 1 %, and every weight is (1 - (r/c)²)² (0 beyond c)."""
+    from scipy.stats import median_abs_deviation, norm
+
+    from bladerecon.core.analysis.alignment import _biweight
+
+    rng = np.random.default_rng(21)
+    sigma = 0.003
+    r = 0.0005 + sigma * rng.standard_normal(200_000)
+    prior = rng.uniform(0.5, 1.0, r.size)
+    w, cutoff = _biweight(r, prior)
+    assert cutoff == pytest.approx(4.685 * sigma, rel=0.01)
+    s_hat = median_abs_deviation(r, scale="normal")
+    assert 1.0 / norm.ppf(0.75) == pytest.approx(1.4826, abs=1e-4)
+    c = 4.685 * s_hat
+    assert cutoff == pytest.approx(c, rel=1e-5)                 # 1.4826 is 1/Φ⁻¹(3/4) to 1.5e-6
+    u = (r - np.median(r)) / c
+    expected = prior * np.where(np.abs(u) < 1.0, (1.0 - u ** 2) ** 2, 0.0)
+    assert np.allclose(w, expected, rtol=0, atol=1e-5)
+    assert 0 < np.sum(w == 0) < 0.001 * r.size                # beyond 4.685 σ: ~3 in 10 000
