@@ -620,3 +620,39 @@ def test_speed_one_million_points_print():
     print(f"\n{pts.shape[0]} points on a 40 x 8-pole surface: {wall:.2f} s wall, {cpu:.2f} s CPU "
           f"({proj_parallel._THREADS} threads, load {os.getloadavg()[0]:.1f}); converged {res.converged.mean():.6f}")
     assert res.converged.all() and res.distance.max() < 0.5
+
+
+def test_normals_at_and_near_a_collapsed_apex_point_outward():
+    """The cone's normal is known in closed form away from the apex: (2 cos a, 2 sin a, 1)/√5
+    (radius 10 - z/2), and S_u x S_v points that way. A point whose foot is the apex (S_u = 0)
+    lies above it, outside the cone: its normal is the direction to it and its signed distance
+    positive (the limit normal of any one u alone may be at right angles to that direction and
+    give either sign). Everywhere the signed distance has the sign of (P - foot)·n."""
+    s = cone_surface()
+    rng = np.random.default_rng(18)
+    pts = np.array([0.0, 0.0, 20.0]) + rng.normal(scale=2.0, size=(3000, 3))
+    res = project_points_to_surface(s, pts)
+
+    def outward(xyz):
+        r = np.hypot(xyz[:, 0], xyz[:, 1])
+        n = np.column_stack([2 * xyz[:, 0] / r, 2 * xyz[:, 1] / r, np.ones(len(r))])
+        return n / np.linalg.norm(n, axis=1, keepdims=True)
+
+    apex = np.hypot(res.foot[:, 0], res.foot[:, 1]) < 1e-6
+    assert 100 < apex.sum() < 2900                       # both kinds of feet are tested
+    off = ~apex
+    # the 12-pole periodic cubic is a circle to ~0.02 %: its normal is the cone's to about 1°
+    assert np.einsum("ij,ij->i", res.normal[off], outward(res.foot[off])).min() > 0.999
+    # apex feet: the points lie above the apex, inside the cone of its normals (63.4° about +z
+    # for the exact cone; the cubic's radius runs 2-4 % under its poles', so up to ~65°)
+    up = (pts[apex] - res.foot[apex]) / res.distance[apex, None]
+    assert up[:, 2].min() > np.cos(np.radians(66.0))
+    assert np.einsum("ij,ij->i", res.normal[apex], up).min() > 1 - 1e-9
+    assert (res.signed[apex] > 0).all()
+    side = np.einsum("ij,ij->i", pts - res.foot, res.normal)
+    assert np.allclose(res.signed, np.sign(side) * res.distance, atol=1e-9)
+    # the same cone with its normal turned inward (u reversed): every sign reverses
+    flipped = BSplineSurface(s.poles[::-1], s.u_knots, s.u_mults, s.v_knots, s.v_mults, 3, 3, True, False)
+    back = project_points_to_surface(flipped, pts)
+    assert np.allclose(back.distance, res.distance, atol=1e-9)
+    assert (back.signed[apex] < 0).all() and np.array_equal(np.sign(back.signed[off]), -np.sign(res.signed[off]))

@@ -57,6 +57,31 @@ def surface_derivatives_fast(surface: BSplineSurface, u: np.ndarray, v: np.ndarr
     return tuple(out)
 
 
+def _collapsed_side(model, u: np.ndarray, v: np.ndarray, across_u: np.ndarray, off: np.ndarray) -> np.ndarray:
+    """±1 per foot on a collapsed edge: the side of the offset ``off`` (3, k) relative to the
+    mean unit normal of the surface just inside the edge (16 samples along the collapsed
+    direction, a millionth of the domain in from the edge). At a cone's apex the normals
+    there sweep a cone about the mean; any one of them alone may be at right angles to the
+    offset and give either sign."""
+    U, V = model.u, model.v
+    along = np.linspace(0.0, 1.0, 16, endpoint=False)
+    out = np.ones(u.size)
+    for i in range(u.size):
+        if across_u[i]:            # S_u = 0: the edge is a point for every u at this v
+            uu = U.lo + along * (U.hi - U.lo)
+            step = 1e-6 * (V.hi - V.lo)
+            vv = np.full(along.size, v[i] - step if v[i] - V.lo > V.hi - v[i] else v[i] + step)
+        else:
+            vv = V.lo + along * (V.hi - V.lo)
+            step = 1e-6 * (U.hi - U.lo)
+            uu = np.full(along.size, u[i] - step if u[i] - U.lo > U.hi - u[i] else u[i] + step)
+        D = model.evaluate(uu, vv, 1)[4]
+        m = np.cross(D[1], D[2], axis=0)
+        m = (m / np.maximum(np.sqrt(_dot(m, m)), 1e-300)).sum(axis=1)
+        out[i] = -1.0 if float(m @ off[:, i]) < 0.0 else 1.0
+    return out
+
+
 def project_points_to_surface(
     surface: BSplineSurface,
     points: np.ndarray,
@@ -111,9 +136,16 @@ def project_points_to_surface(
         n_len = np.sqrt(_dot(n, n))
         off = np.ascontiguousarray(P[rows].T) - S
         dist = np.sqrt(_dot(off, off))
-        # where S_u x S_v vanishes (a collapsed edge) the offset direction is the normal
-        degenerate = n_len <= 1e-14 * np.sqrt(np.maximum(_dot(Su, Su) * _dot(Sv, Sv), 1e-300))
+        # where S_u x S_v vanishes (a collapsed edge: S_u or S_v zero to rounding, or parallel)
+        # the offset direction is the normal, turned to the side the normals next to the
+        # collapsed edge point to (:func:`_collapsed_side`)
+        su2, sv2 = _dot(Su, Su), _dot(Sv, Sv)
+        degenerate = ((n_len <= 1e-14 * np.sqrt(np.maximum(su2 * sv2, 1e-300)))
+                      | (su2 <= 1e-18 * sv2) | (sv2 <= 1e-18 * su2))
         n = np.where(degenerate, off / np.maximum(dist, 1e-300), n / np.where(degenerate, 1.0, n_len))
+        if degenerate.any():
+            k = np.flatnonzero(degenerate)
+            n[:, k] *= _collapsed_side(model, params[0][k], params[1][k], su2[k] <= sv2[k], off[:, k])
         out.u[target], out.v[target], out.converged[target] = params[0], params[1], conv
         out.foot[target], out.normal[target], out.distance[target] = S.T, n.T, dist
         out.signed[target] = np.where(_dot(off, n) < 0, -dist, dist)
