@@ -266,3 +266,22 @@ def test_read_shape_without_faces(tmp_path):
     Part.makeLine((0, 0, 0), (1, 1, 1)).exportBrep(str(tmp_path / "edge.brep"))
     with pytest.raises(BladeReconError, match="holds no faces"):
         read_shape(tmp_path / "edge.brep")
+
+
+@pytest.mark.parametrize("amplitude, accepted", [(0.008, True), (0.015, False)])
+def test_make_solid_default_planar_limit_is_ten_micrometres(amplitude, accepted):
+    """The default limit (PLANAR_TOL, 0.01 mm) tells a hub 8 µm out of plane from one 15 µm
+    out: a limit ten times looser, or half as tight, fails one of the two. The flatness is
+    measured independently of make_solid (end_section_flatness, then checked in range)."""
+    s = tapered_tube()
+    poles = s.poles.copy()
+    poles[:, 0, 2] += amplitude * np.cos(2 * np.linspace(0, 2 * np.pi, len(poles), endpoint=False))
+    s = BSplineSurface(poles, s.u_knots, s.u_mults, s.v_knots, s.v_mults, 3, 3, True, False)
+    flat = end_section_flatness(s)["hub"]
+    if accepted:
+        assert 0.005 < flat < 0.0095, flat
+        assert make_solid(s).isValid()
+    else:
+        assert 0.011 < flat < 0.02, flat
+        with pytest.raises(BladeReconError, match="hub end section is not planar"):
+            make_solid(s)

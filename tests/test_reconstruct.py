@@ -230,3 +230,19 @@ def test_cli_says_when_the_tolerance_is_not_met(tolerance, met):
     assert len(warnings) == (0 if met else 1), proc.stderr
     if not met:
         assert warnings[0].startswith("bladerecon: warning: ") and f"{fit_max * 1000:.1f} µm" in warnings[0]
+
+
+@pytest.mark.parametrize("sigma, expected", [(0.0016, "interpolate"), (0.0025, "approximate")])
+def test_method_choice_switches_at_the_tangent_noise_limit(sigma, expected):
+    """Rings of radius 20 mm, points 0.1 mm apart, noise along the normal only: noise/spacing is
+    0.016 or 0.025, either side of the documented limit 0.02 rad (≈1°), and within 20 % of it,
+    so a limit moved by a quarter fails one of the two."""
+    rng = np.random.default_rng(12)
+    n = int(round(2 * np.pi * 20.0 / 0.1))
+    a = 2 * np.pi * np.arange(n) / n
+    ring = np.column_stack([np.cos(a), np.sin(a), np.zeros(n)])
+    sections = [20.0 * ring + sigma * rng.standard_normal(n)[:, None] * ring + [0.0, 0.0, 10.0 * k]
+                for k in range(3)]
+    choice = choose_method(sections)
+    assert choice.tangent_noise == pytest.approx(sigma / 0.1, rel=0.05)
+    assert choice.method == expected, choice
