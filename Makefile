@@ -7,7 +7,7 @@ SUDO := $(shell [ "$$(id -u)" -eq 0 ] || echo sudo)
 export PYTHONPATH := $(CURDIR)$(if $(PYTHONPATH),:$(PYTHONPATH))
 export QTWEBENGINE_DISABLE_SANDBOX := 1
 
-.PHONY: all deps test test-freecad1 demo bench help
+.PHONY: all deps test test-freecad1 demo bench help mutation
 
 all: test
 
@@ -17,6 +17,7 @@ help:
 	@echo "make test-freecad1   the same suite on FreeCAD 1.0 in a Debian 13 root (.cache/debian13, root only)"
 	@echo "make demo   reconstruct the sample blade into demo_out/"
 	@echo "make bench  run the benchmarks (bench/run_all.py)"
+	@echo "make mutation   mutmut over bladerecon/core module by module (hours; bench/results/mutation.md)"
 	@echo "make install   put the bladerecon command on PATH (~/.local/bin, root: /usr/local/bin; PREFIX=DIR)"
 
 # Only packages that are not installed trigger apt-get (messages go to stderr: stdout stays for --json).
@@ -52,6 +53,11 @@ demo: deps
 bench: deps
 	$(PYTHON) bench/run_all.py
 	@for b in bench/bench_*.py; do [ -e "$$b" ] || continue; echo "== $$b"; $(PYTHON) "$$b" || exit $$?; done
+
+# Mutation testing (a development tool from PyPI in .cache/mutation-venv, never a dependency):
+# mutmut in a throw-away clone of HEAD; MUTATION_MODULES=alignment,fitting for a subset. Not in CI.
+mutation:
+	$(PYTHON) tools/mutation.py
 
 # Live acquisition demo: the simulated controller on a pty (paced like 115200 baud, with faults
 # and two disconnects), captured by `acquire`, then reconstructed.
