@@ -230,3 +230,41 @@ def test_a_report_folder_that_is_a_file_is_one_line(tmp_path):
     (tmp_path / "rep").write_text("a file")
     with pytest.raises(BladeReconError, match="is a file, not a folder"):
         write_report(str(tmp_path / "rep"), {}, None, None, None, None)
+
+
+@pytest.mark.timeout(180)
+def test_sigterm_ends_a_command_with_nothing_new_left(tmp_path):
+    """SIGTERM (a batch system's kill, a closed terminal's hang-up turned to TERM) while a
+    command works: exit 143 with one line, the report folder and the hidden temporaries gone,
+    and no forked worker left running."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    root = Path(__file__).resolve().parent.parent
+    lines = (root / "resources" / "sample" / "measured.csv").read_text().splitlines()
+    big = tmp_path / "big.csv"
+    big.write_text("\n".join([lines[0]] + lines[1:] * 40) + "\n")          # 480 000 points
+    out = tmp_path / "out"
+    out.mkdir()
+    env = dict(os.environ, PYTHONPATH=str(root))
+    proc = subprocess.Popen([sys.executable, "-m", "bladerecon", "deviation", str(big), "--nominal",
+                             str(root / "resources" / "sample" / "nominal.step"), "--report", str(out / "rep")],
+                            env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    end = time.monotonic() + 120
+    while not any(p.name.startswith(".") for p in out.iterdir()):     # its temporaries exist: it is working
+        assert proc.poll() is None, proc.communicate()
+        assert time.monotonic() < end, "no temporary appeared"
+        time.sleep(0.02)
+    time.sleep(0.5)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
+    if proc.returncode == 0:
+        pytest.fail("the command finished before SIGTERM arrived: make the input larger")
+    assert proc.returncode == 143, err
+    assert err.strip().splitlines()[-1] == "bladerecon: terminated (SIGTERM); no output was completed", err
+    assert "Traceback" not in err
+    assert list(out.iterdir()) == []
+    left = subprocess.run(["pgrep", "-f", str(big)], capture_output=True, text=True).stdout.split()
+    assert not left, f"processes left running: {left}"

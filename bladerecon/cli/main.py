@@ -17,6 +17,7 @@ import importlib.util
 import json
 import os
 import shlex
+import signal
 import sys
 
 from bladerecon import __version__
@@ -158,8 +159,31 @@ def interpreter_error(missing: list[tuple[str, str]], argv: list[str]) -> str:
     return f"bladerecon: error: this Python ({sys.executable}) has {what}: {advice}"
 
 
+class Terminated(BaseException):
+    """SIGTERM arrived: raised where the command is, so that every ``with Outputs(...)`` on the
+    way out removes its temporaries (as for Ctrl-C)."""
+
+
+def _on_sigterm(signum, frame) -> None:
+    raise Terminated()
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
+    previous = signal.signal(signal.SIGTERM, _on_sigterm) if _main_thread() else None
+    try:
+        return _main(argv)
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+
+
+def _main_thread() -> bool:
+    import threading
+    return threading.current_thread() is threading.main_thread()
+
+
+def _main(argv: list[str]) -> int:
     missing = missing_modules(BASE_MODULES)
     if missing:    # the parser itself needs numpy (the command modules import it)
         print(interpreter_error(missing, argv), file=sys.stderr)
@@ -183,6 +207,9 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("bladerecon: interrupted; no output was completed", file=sys.stderr)
         return 130
+    except Terminated:
+        print("bladerecon: terminated (SIGTERM); no output was completed", file=sys.stderr)
+        return 143
     except Exception as err:  # an internal error: one line unless debugging
         if os.environ.get("BLADERECON_DEBUG"):
             raise

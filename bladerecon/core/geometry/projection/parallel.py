@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import mmap
 import os
+import signal
 import sys
 import threading
 from concurrent.futures import ThreadPoolExecutor
@@ -74,12 +75,24 @@ def _fork_blocks(groups: list[list[tuple[int, int]]], work) -> None:
             finally:
                 os._exit(code)
         children.append((pid, group))
-    for s, e in groups[0]:
-        work(s, e, 1)
-    for pid, group in children:
-        if pid is None or os.waitpid(pid, 0)[1] != 0:
-            for s, e in group:
-                work(s, e, 1)
+    waiting = {pid for pid, _ in children if pid is not None}
+    try:
+        for s, e in groups[0]:
+            work(s, e, 1)
+        for pid, group in children:
+            failed = pid is None or os.waitpid(pid, 0)[1] != 0
+            waiting.discard(pid)
+            if failed:
+                for s, e in group:
+                    work(s, e, 1)
+    except BaseException:         # Ctrl-C, SIGTERM, an error here: no child outlives the call
+        for pid in waiting:
+            try:
+                os.kill(pid, signal.SIGKILL)
+                os.waitpid(pid, 0)
+            except OSError:
+                pass
+        raise
 
 
 def _shared(shape: tuple[int, ...], dtype=float) -> np.ndarray:
