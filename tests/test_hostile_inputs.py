@@ -58,6 +58,9 @@ def _write_inputs(d: Path) -> None:
     (d / "utf16.csv").write_bytes("section,x,y,z\n0,1,2,3\n".encode("utf-16"))
     (d / "ctl.csv").write_bytes(b"section,x,y,z\n0,1,2,3\n0,1,2,\x1b[31m\x1b]0;owned\x07red\n")
     (d / "ctlhead.csv").write_bytes(b"\x1b[2J\x1b[31mpwned,a,b\n1,2,3\n")
+    # the same plan in metres (a nominal in mm): the unit check names the factor
+    (d / "metres.csv").write_text("\n".join([head] + [",".join([r[0]] + [repr(float(v) / 1000.0) for v in r[1:]])
+                                                        for r in rows]) + "\n")
     (d / "text.step").write_text("this is not a STEP file\n")
     (d / "empty.step").write_bytes(b"")
     (d / "cloud.bin").write_bytes(b"1 2 3\n" * 10 + b"\xff\xfe\x00\x01" * 100)
@@ -257,6 +260,11 @@ CASES = [
     ("input", "acq-replay-fifo", ["acquire", "--replay", "{d}/fifo", "-o", "{o}/a.csv", "--quiet"], "FIFO"),
     ("input", "acq-calibration-fifo", ACQ[:3] + ["--calibration", "{d}/fifo", "-o", "{o}/a.csv", "--quiet"], "FIFO"),
     ("input", "rec-cloud-binary", ["reconstruct", "{d}/cloud.bin", "--slice", "4", "--quiet"], "not a text"),
+    # ---- plausibility: points in metres against a nominal in mm
+    ("plausibility", "rec-nominal-metres", ["reconstruct", "{d}/metres.csv", "--nominal", N, "-o", "{o}/r.step",
+                                            "--report", "{o}/rep", "--quiet"], "look like metres"),
+    ("plausibility", "dev-nominal-metres", ["deviation", "{d}/metres.csv", "--nominal", N, "--csv", "{o}/d.csv",
+                                            "--quiet"], "look like metres"),
 ]
 
 

@@ -57,6 +57,24 @@ def add_parser(sub) -> None:
     r.set_defaults(run=run_reconstruct)
 
 
+def _check_units(measured: np.ndarray, on_points: np.ndarray, args: argparse.Namespace) -> None:
+    """Measured points far from the nominal (median over 1 % of its size): the unit or frame
+    check of ``deviation`` says which (metres, inches, micrometres, another frame) and stops
+    the run; nearer, the shape error is reported as measured."""
+    from bladerecon.fc.deviation import Nominal, check_units
+    from bladerecon.fc.export import read_shape
+
+    median = float(np.median(np.abs(on_points))) if on_points.size else 0.0
+    extent = float(np.linalg.norm(np.ptp(measured, axis=0))) if len(measured) else 0.0
+    if median <= 0.01 * extent:        # the usual case, decided without reading the nominal again
+        return
+    shape = read_shape(args.nominal)
+    box = shape.BoundBox
+    size = float(np.sqrt(box.XLength ** 2 + box.YLength ** 2 + box.ZLength ** 2))
+    if median > 0.01 * size:
+        check_units(measured, Nominal(shape), source=args.input)
+
+
 def _stats(d: np.ndarray, signed: bool | None = None) -> dict:
     from bladerecon.core.geometry.projection import distance_stats
     return distance_stats(d, signed=signed)
@@ -191,6 +209,7 @@ def _reconstruct(args: argparse.Namespace, say, step: str | None, report: str | 
         # the nominal is the expensive part
         dev = deviation_to_nominal(np.concatenate([samples, measured]), args.nominal)
         on_surface, on_points = dev.signed[: len(samples)], dev.signed[len(samples):]
+        _check_units(measured, on_points, args)
         summary["nominal"] = {**_stats(on_surface, signed=True), "file": args.nominal,
                               "samples": int(samples.shape[0]), "method": dev.method}
         summary["measured_to_nominal"] = _stats(on_points, signed=True)
