@@ -61,14 +61,18 @@ def _run(name: str, repo: Path, log) -> dict:
                     "--simple-output"], cwd=repo, env=env, stdout=log, stderr=subprocess.STDOUT)
     minutes = (datetime.datetime.now() - started).total_seconds() / 60
     counts = dict.fromkeys(STATUS.values(), 0)
+    db = sqlite3.connect(cache)
+    rows = db.execute("select id, status from Mutant order by id").fetchall()
+    db.close()                    # before mutmut reads the cache itself (a held connection locks it)
+    survived = []
+    for mid, status in rows:
+        counts[STATUS.get(status, status)] = counts.get(STATUS.get(status, status), 0) + 1
+        if status == "bad_survived":
+            survived.append(mid)
     survivors = []
-    with sqlite3.connect(cache) as db:
-        for mid, status in db.execute("select id, status from Mutant order by id"):
-            counts[STATUS.get(status, status)] = counts.get(STATUS.get(status, status), 0) + 1
-            if status == "bad_survived":
-                diff = subprocess.run([str(MUTMUT), "show", str(mid)], cwd=repo, env=env, capture_output=True,
-                                      text=True).stdout
-                survivors.append((mid, diff.strip()))
+    for mid in survived:
+        show = subprocess.run([str(MUTMUT), "show", str(mid)], cwd=repo, env=env, capture_output=True, text=True)
+        survivors.append((mid, (show.stdout or show.stderr).strip()))
     tested = counts["killed"] + counts["survived"] + counts["timeout"]
     score = (counts["killed"] + counts["timeout"]) / tested if tested else float("nan")
     return {"name": name, "paths": paths, "tests": tests, "counts": counts, "score": score,
