@@ -372,7 +372,7 @@ def _on_dask(jobs: list[dict], args, done) -> None:
     except ImportError:
         raise BladeReconError("--scheduler needs Dask distributed: sudo apt-get install python3-distributed") from None
     try:
-        client = Client(args.scheduler, timeout=20, set_as_default=False)
+        client = Client(args.scheduler, timeout=20)
     except (OSError, TimeoutError, ValueError) as err:
         raise BladeReconError(f"--scheduler {args.scheduler}: cannot connect: {' '.join(str(err).split())}") from None
     try:
