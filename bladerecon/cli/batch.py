@@ -201,13 +201,15 @@ def _stored(folder: str, inputs: dict) -> dict | None:
 
 
 def _position(job: dict) -> dict:
-    """Blade-to-blade position errors (blisk): the rigid best fit of the blade's points
-    (turned back into blade 0's place) onto the nominal; its inverse is the blade's motion."""
+    """Blade-to-blade position errors (blisk) of the blade's points (turned back into blade 0's
+    place): pitch, stagger, axial from the fit with the radial slide locked
+    (:func:`~bladerecon.core.lot.blisk.position_fit`), radial from a free rigid fit (weakly
+    determined on a flank-only scan: see docs/batch.md). The fit's inverse is the blade's motion."""
     import numpy as np
 
     from bladerecon.cli.deviation import _read_measured
     from bladerecon.core.analysis.alignment import best_fit
-    from bladerecon.core.lot.blisk import position_errors
+    from bladerecon.core.lot.blisk import position_errors, position_fit
     from bladerecon.fc.deviation import load_nominal
 
     key = (job["nominal"], _inputs(job)["nominal_sha256"])
@@ -216,9 +218,12 @@ def _position(job: dict) -> dict:
         _NOMINALS[key] = load_nominal(job["nominal"])
     nominal = _NOMINALS[key]
     points, _, _ = _read_measured(job["file"])
-    fit = best_fit(points, nominal.projector(), "rigid")
-    errors = position_errors(np.linalg.inv(fit.matrix), nominal.centre, np.asarray(job["position"]["axis"], float))
-    errors["fit_rms_mm"] = float(fit.rms_after)
+    axis = np.asarray(job["position"]["axis"], float)
+    locked = position_fit(points, nominal.projector(), nominal.centre, axis)
+    errors = position_errors(np.linalg.inv(locked), nominal.centre, axis)
+    free = best_fit(points, nominal.projector(), "rigid")     # radial: only a free fit can see it
+    errors["radial_mm"] = position_errors(np.linalg.inv(free.matrix), nominal.centre, axis)["radial_mm"]
+    errors["fit_rms_mm"] = float(free.rms_after)
     return errors
 
 

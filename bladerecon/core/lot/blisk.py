@@ -87,3 +87,44 @@ def position_errors(error_motion: np.ndarray, reference: np.ndarray, axis: np.nd
     rotvec = w * (angle / (2.0 * sin_angle)) if sin_angle > 1e-300 else np.zeros(3)
     return {"pitch_deg": float(pitch), "stagger_deg": float(np.degrees(rotvec @ radial_dir)),
             "radial_mm": float(r1 - r0), "axial_mm": float((moved - c) @ a)}
+
+
+def position_fit(points: np.ndarray, project, reference: np.ndarray, axis: np.ndarray,
+                 max_iter: int = 60) -> np.ndarray:
+    """The blade's best fit onto its nominal with the radial slide locked: 4x4 motion
+    (measured -> nominal) of rotations about ``reference`` and shifts along the axis and
+    the tangent only (point-to-plane Gauss-Newton, as
+    :func:`bladerecon.core.analysis.alignment.best_fit`).
+
+    Why locked: on a twisted blade measured on its flanks, sliding along the span while
+    turning with the twist is almost a symmetry (a screw), so a free rigid fit trades a
+    few micrometres of form error for tenths of a millimetre of radial shift and the
+    matching stagger. Pitch is unaffected either way.
+    """
+    from bladerecon.core.analysis.alignment import _rodrigues, _signed
+
+    P0 = np.asarray(points, float)
+    a = np.asarray(axis, float)
+    c = np.asarray(reference, float)
+    radial = c - (c @ a) * a
+    radial /= max(np.linalg.norm(radial), 1e-300)
+    tangent = np.cross(a, radial)
+    M = np.eye(4)
+    size = float(np.max(np.linalg.norm(P0 - c, axis=1))) or 1.0
+    for _ in range(max_iter):
+        P = P0 @ M[:3, :3].T + M[:3, 3]
+        r, n = _signed(P, project)
+        J = np.column_stack([np.cross(P - c, n), n @ a, n @ tangent])
+        scale = np.linalg.norm(J, axis=0)
+        scale[scale == 0] = 1.0
+        x = np.linalg.lstsq(J / scale, -r, rcond=None)[0] / scale
+        w, t = x[:3], x[3] * a + x[4] * tangent
+        R = _rodrigues(w)
+        step = np.eye(4)
+        step[:3, :3] = R
+        step[:3, 3] = c - R @ c + t
+        M = step @ M
+        if np.linalg.norm(w) * size + np.linalg.norm(t) < 1e-9:
+            return M
+    raise BladeReconError(f"the blade's position fit did not converge in {max_iter} iterations: "
+                          "check that the points belong to this nominal")
