@@ -377,7 +377,7 @@ def _on_dask(jobs: list[dict], args, done) -> None:
     except ImportError:
         raise BladeReconError("--scheduler needs Dask distributed: sudo apt-get install python3-distributed") from None
     try:
-        client = Client(args.scheduler, timeout=20)
+        client = Client(args.scheduler, timeout="10s")
     except (OSError, TimeoutError, ValueError) as err:
         raise BladeReconError(f"--scheduler {args.scheduler}: cannot connect: {' '.join(str(err).split())}") from None
     try:
