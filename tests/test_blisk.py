@@ -104,10 +104,10 @@ def test_blisk_with_empty_sectors_names_them(blisk_files, tmp_path):
 
 
 def test_example_scan_is_the_generators():
-    """resources/blisk/scan.csv is what tools/make_blisk_example.py's generator call gives."""
+    """resources/blisk/points.csv is what tools/make_blisk_example.py's generator call gives."""
     from bladerecon.core.io.readers import read_points
 
     scan = blisk_scan(12, n_sections=4, n_points=50, pitch_errors={5: 0.2}, seed=3)
-    ps = read_points(ROOT / "resources" / "blisk" / "scan.csv")
+    ps = read_points(ROOT / "resources" / "blisk" / "points.csv")
     assert np.allclose(ps.points, scan.points, atol=6e-7)
     assert [int(ps.section_names[i]) for i in ps.section] == scan.section.tolist()

@@ -22,7 +22,7 @@ Written by `tools/make_blisk_example.py` (fixed seed; do not edit by hand). Coor
 
 | file | what |
 |---|---|
-| `scan.csv` | `section,x,y,z`: {n} blades of the sample blade about the z axis (blade 0's hub at x = {hub:g} mm, its span along +x), {s} sections x {p} points per blade (section `k*{s}+j` is blade k's section j), each blade offset along its normal by N(0, 3 µm), 2 µm noise; blade 5 is 0.2° out of pitch (`samples.blisk.blisk_scan({n}, n_sections={s}, n_points={p}, pitch_errors={{5: 0.2}}, seed={seed})`) |
+| `points.csv` | `section,x,y,z`: {n} blades of the sample blade about the z axis (blade 0's hub at x = {hub:g} mm, its span along +x), {s} sections x {p} points per blade (section `k*{s}+j` is blade k's section j), each blade offset along its normal by N(0, 3 µm), 2 µm noise; blade 5 is 0.2° out of pitch (`samples.blisk.blisk_scan({n}, n_sections={s}, n_points={p}, pitch_errors={{5: 0.2}}, seed={seed})`) |
 | `blade0.step` | blade 0's nominal in the blisk's frame: the sample nominal surface (11 x 400 interpolated points, coarser than resources/sample/nominal.step to keep the file small) placed by `samples.blisk.placement()` |
 """
 
@@ -33,7 +33,7 @@ def main() -> None:
 
     OUT.mkdir(parents=True, exist_ok=True)
     scan = blisk_scan(N_BLADES, n_sections=N_SECTIONS, n_points=N_POINTS, pitch_errors=PITCH_ERRORS, seed=SEED)
-    write_points_csv(OUT / "scan.csv", scan.points.round(6), scan.section)
+    write_points_csv(OUT / "points.csv", scan.points.round(6), scan.section)
     from bladerecon.fc.freecad_env import import_freecad
 
     import_freecad()
@@ -44,7 +44,7 @@ def main() -> None:
     write_step(make_face(blisk_nominal_surface(n_span=11, n_profile=400)), str(OUT / "blade0.step"))
     normalise_step_header(OUT / "blade0.step")
     (OUT / "README.md").write_text(README.format(n=N_BLADES, hub=HUB_RADIUS, s=N_SECTIONS, p=N_POINTS, seed=SEED))
-    print(f"wrote {OUT}: scan.csv ({len(scan.points)} points), blade0.step, README.md")
+    print(f"wrote {OUT}: points.csv ({len(scan.points)} points), blade0.step, README.md")
 
 
 if __name__ == "__main__":
