@@ -111,3 +111,13 @@ def test_example_scan_is_the_generators():
     ps = read_points(ROOT / "resources" / "blisk" / "points.csv")
     assert np.allclose(ps.points, scan.points, atol=6e-7)
     assert [int(ps.section_names[i]) for i in ps.section] == scan.section.tolist()
+
+
+def test_sectors_about_the_x_axis():
+    """The same blisk turned so that its axis is x: the split about --axis x is the same."""
+    scan = blisk_scan(12, n_sections=2, n_points=40, seed=4)
+    z_to_x = rotation_about((1.0, 1.0, 1.0), 120.0)            # x -> y -> z -> x: the z axis becomes x
+    P = apply_transform(scan.points, z_to_x)
+    X = np.array([1.0, 0.0, 0.0])
+    blade0 = float(point_angles(apply_transform(np.array([[HUB_RADIUS + 50.0, 0.0, 0.0]]), z_to_x), X)[0])
+    assert np.array_equal(split_sectors(P, X, 12, blade0), scan.section // 2)

@@ -118,13 +118,19 @@ def run_blade(job: dict) -> dict:
             return _failed(job, f"internal error: {type(err).__name__}: {err}")
 
 
-def _failed(job: dict, message: str) -> dict:
+def _shown(job: dict, message: str) -> str:
+    """``message`` on one line, with the job's absolute paths as the user named them (lot.json
+    holds no absolute paths)."""
     for path, shown in ((job["file"], job["shown"]), (job["nominal"], job["nominal_shown"]),
                         (job["out"], os.path.join(job["out_shown"], job["blade"]))):
         if path:
             message = message.replace(path, shown)
+    return " ".join(message.split())
+
+
+def _failed(job: dict, message: str) -> dict:
     return {"blade": job["blade"], "serial": job["serial"], "date": job["date"], "status": "error",
-            "error": " ".join(message.split())}
+            "error": _shown(job, message)}
 
 
 def _inputs(job: dict) -> dict:
@@ -242,7 +248,7 @@ def _record(job: dict, summary: dict, inputs: dict, resumed: bool) -> dict:
         rec["sections"] = [{"index": int(row["index"]), "name": str(name), "difference": row["difference"]}
                            for row, name in zip(table["rows"], table["names"])]
     elif table and "error" in table:
-        rec["sections_error"] = table["error"]
+        rec["sections_error"] = _shown(job, table["error"])
     if "position" in summary:
         rec["position"] = summary["position"]
     if resumed:
