@@ -122,7 +122,7 @@ def test_dask_cluster_gives_the_same_lot_json(lot, pool_run, tmp_path):
     folder, _ = lot
     out = tmp_path / "dask"
     cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
-                           dashboard_address=None, worker_dashboard_address=None)
+                           dashboard_address=None)
     try:
         r = run("batch", folder / "manifest.csv", "--nominal", NOMINAL, "-o", out,
                 "--scheduler", cluster.scheduler_address, timeout=240)
