@@ -2,7 +2,7 @@
 # BladeRecon: install what is missing, test, demo, benchmark.
 # FreeCAD's Python modules load only in the Python they were built for: Debian's /usr/bin/python3.
 PYTHON ?= /usr/bin/python3
-DEB_PACKAGES := freecad python3-numpy python3-scipy python3-matplotlib python3-serial python3-pytest python3-hypothesis xvfb xauth
+DEB_PACKAGES := freecad python3-numpy python3-scipy python3-matplotlib python3-serial python3-pytest python3-hypothesis python3-dask python3-distributed xvfb xauth
 SUDO := $(shell [ "$$(id -u)" -eq 0 ] || echo sudo)
 export PYTHONPATH := $(CURDIR)$(if $(PYTHONPATH),:$(PYTHONPATH))
 export QTWEBENGINE_DISABLE_SANDBOX := 1

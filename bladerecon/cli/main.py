@@ -39,7 +39,8 @@ def build_parser() -> argparse.ArgumentParser:
 # One module per subcommand, each with ``add_parser(sub)`` that calls
 # ``set_defaults(run=function_returning_summary_dict)``; main() prints the summary with --json.
 COMMAND_MODULES: tuple[str, ...] = ("bladerecon.cli.reconstruct", "bladerecon.cli.deviation", "bladerecon.cli.sections",
-                                    "bladerecon.cli.plan", "bladerecon.cli.tspline", "bladerecon.cli.acquire")
+                                    "bladerecon.cli.plan", "bladerecon.cli.tspline", "bladerecon.cli.acquire",
+                                    "bladerecon.cli.batch", "bladerecon.cli.blisk")
 
 
 # The interpreter FreeCAD's Python modules are built for (Debian/Ubuntu); BLADERECON_PYTHON
@@ -51,7 +52,8 @@ _SHAPE_SUFFIXES = (".step", ".stp", ".iges", ".igs", ".brep", ".brp", ".fcstd")
 # Debian's package names, for the hint when this Python is the right one but lacks a module.
 _LABEL = {"serial": "pyserial"}    # the module ``serial`` comes in the package pyserial
 _DEBIAN = {"numpy": "python3-numpy", "scipy": "python3-scipy", "matplotlib": "python3-matplotlib",
-           "serial": "python3-serial", "FreeCAD": "freecad"}
+           "serial": "python3-serial", "FreeCAD": "freecad",
+           "distributed": "python3-distributed"}
 
 
 def _shape(path: str | None) -> bool:
@@ -86,6 +88,12 @@ def needed_modules(args: argparse.Namespace) -> list[str]:
     elif command == "tspline":
         if args.output:
             need.append("FreeCAD")
+    elif command in ("batch", "blisk"):
+        if not args.scheduler or command == "blisk":   # the Dask workers read the nominal, not this one
+            need.append("FreeCAD")
+        need.append("matplotlib")           # lot.html's trend plot
+        if args.scheduler:
+            need.append("distributed")      # Dask distributed (python3-distributed)
     elif command in ("acquire", "simulate-instrument"):
         if getattr(args, "port", None):     # --replay reads a journal, --link makes a pty: no pyserial
             need.append("serial")
