@@ -20,7 +20,9 @@ and the minimax of affine functions is the linear programme
     min s   subject to   −s ≤ d_i(w, t) / h_i ≤ s   for every i,   |w|·L, |t| ≤ ρ
 
 (s, w, t unknown; the box of side ρ mm, L the cloud's radius, is a trust region that keeps
-the step where the linearisation holds). It is solved by scipy's ``linprog`` (HiGHS). The
+the step where the linearisation holds; a cost of 1e-3 per mm of motion added to s picks the
+smallest motion among near-equal ones: a blade barely fixes its slide along the span, and
+the end sections would otherwise slide off the nominal's ends). It is solved by scipy's ``linprog`` (HiGHS). The
 exact rotation exp([w]x) (Rodrigues) is composed onto the motion, the points re-projected
 and the largest normalised deviation measured exactly; a step that does not lower it is
 retried with ρ/4 (a sequential linear programme with a trust region, e.g. Nocedal & Wright,
@@ -41,6 +43,7 @@ __all__ = ["ZoneFit", "zone_fit", "normalised_deviation"]
 _MAX_ITER = 40
 _REL_STOP = 1e-7        # a step that lowers the largest normalised deviation by less than this stops
 _RHO_MIN = 1e-9         # mm: trust region this small: no better motion nearby
+_MOTION_COST = 1e-3     # per mm of motion (|x|₁), in units of the normalised deviation: a tie-break
 
 
 @dataclass(frozen=True)
@@ -77,11 +80,21 @@ class ZoneFit:
 
 
 def normalised_deviation(points: np.ndarray, project: Projector, halfwidth: np.ndarray):
-    """Signed deviations (mm), outward normals, and deviation / half-width of ``points``."""
+    """Signed distances (mm), their gradients in the point, and distance / half-width.
+
+    The distance is |P − F| signed by the outward normal, so a point whose foot lies on a
+    boundary edge of the nominal (off the end of the blade surface) counts its whole
+    distance; its gradient is then (P − F)/d rather than the normal at the edge."""
     foot, normal = project(points)
     normal = np.asarray(normal, float)
-    r = np.einsum("ij,ij->i", points - np.asarray(foot, float), normal)
-    return r, normal, r / halfwidth
+    off = points - np.asarray(foot, float)
+    along = np.einsum("ij,ij->i", off, normal)
+    dist = np.linalg.norm(off, axis=1)
+    r = np.where(along < 0, -dist, dist)
+    use = dist > 1e-9 * max(float(dist.max()), 1.0)
+    grad = normal.copy()
+    grad[use] = off[use] / r[use, None]
+    return r, grad, r / halfwidth
 
 
 def _lp_step(P: np.ndarray, r: np.ndarray, n: np.ndarray, h: np.ndarray, c: np.ndarray, L: float, rho: float):
@@ -93,15 +106,19 @@ def _lp_step(P: np.ndarray, r: np.ndarray, n: np.ndarray, h: np.ndarray, c: np.n
     g = r / h
     m = len(r)
     ones = np.ones((m, 1))
-    A = np.vstack([np.hstack([J, -ones]), np.hstack([-J, -ones])])
+    # motion x = x+ − x− (both ≥ 0) so that a small cost on |x|₁ picks, among motions as good
+    # (a blade barely fixes its slide along the span), the one nearest the start
+    A = np.vstack([np.hstack([J, -J, -ones]), np.hstack([-J, J, -ones])])
     b = np.concatenate([-g, g])
-    cost = np.zeros(7)
-    cost[6] = 1.0
-    res = linprog(cost, A_ub=A, b_ub=b, bounds=[(-rho, rho)] * 6 + [(0, None)], method="highs")
+    cost = np.full(13, _MOTION_COST)
+    cost[12] = 1.0
+    res = linprog(cost, A_ub=A, b_ub=b, bounds=[(0, rho)] * 12 + [(0, None)], method="highs")
     if res.status != 0:
         raise BladeReconError(f"zone fit: the linear programme failed ({res.message}); "
                               "use the least-squares fit (fit.mode = \"rigid\")")
-    return res.x[:3] / L, res.x[3:6], float(res.x[6])
+    x = res.x[:6] - res.x[6:12]
+    s = float(np.abs(g + J @ x).max())               # the model's value without the motion cost
+    return x[:3] / L, x[3:6], s
 
 
 def zone_fit(points: np.ndarray, project: Projector, halfwidth: np.ndarray, *, start: np.ndarray | None = None,
