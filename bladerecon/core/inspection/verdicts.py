@@ -122,7 +122,13 @@ def _parameter_verdicts(plan: InspectionPlan, row: dict | None) -> dict:
             continue
         lo, hi = plan.limits[key]
         if row is None or "error" in row or row.get(key) is None or row["nominal"].get(key) is None:
-            why = row.get("error") if isinstance(row, dict) and "error" in row else "not measured"
+            why = "not measured"
+            if isinstance(row, dict) and "error" in row:
+                why = row["error"]
+            elif isinstance(row, dict) and row.get("warnings"):
+                edge = {"le_radius": "leading", "te_radius": "trailing"}.get(key, "")
+                said = [str(w) for w in row["warnings"] if edge in str(w)]
+                why = "not measured: " + "; ".join(said) if said else why
             out[key] = {"value": None, "nominal": None, "difference": None, "limits": [lo, hi], "pass": False,
                         "note": why}
             continue
