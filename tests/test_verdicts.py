@@ -238,3 +238,11 @@ def test_halfwidths_follow_zones_and_overrides():
     section = np.array([0, 0, 1, 1, 2, 2])
     zone = np.array([LEADING_EDGE, FLANKS, FLANKS, TRAILING_EDGE, LEADING_EDGE, FLANKS])
     assert halfwidths(plan, section, zone, ["hub", "mid", "tip"]).tolist() == [0.05, 0.08, 0.10, 0.05, 0.02, 0.08]
+
+
+def test_verdict_colours_follow_the_section_verdicts():
+    from bladerecon.gui.colormap import VERDICT_FAIL, VERDICT_NONE, VERDICT_PASS, verdict_colours
+
+    rgb = verdict_colours(np.array([0, 1, 2, -1, 7]), ["hub: pass", "mid: fail: chord -0.1200", "a:b: pass"])
+    assert [tuple(c) for c in rgb] == [VERDICT_PASS, VERDICT_FAIL, VERDICT_PASS, VERDICT_NONE, VERDICT_NONE]
+    assert (verdict_colours(np.array([0, 1]), []) == VERDICT_NONE).all()
