@@ -81,3 +81,15 @@ def test_bad_plan_fails_the_recompute_and_reopen_keeps_the_plan(analysis, tmp_pa
         assert list(restored.SectionVerdicts) == list(obj.SectionVerdicts)
     finally:
         FreeCAD.closeDocument(again.Name)
+
+
+@pytest.mark.timeout(600)
+def test_workbench_report_has_the_verdicts(analysis, tmp_path):
+    from bladerecon.report.deviation import write_analysis_report
+
+    doc, obj, plan = analysis
+    summary = write_analysis_report(obj, str(tmp_path / "report"))
+    assert summary["verdict"] == obj.Verdict
+    assert [s["verdict"] for s in summary["sections"]] == [ln.split(": ")[1] for ln in obj.SectionVerdicts]
+    page = (tmp_path / "report" / "report.html").read_text(encoding="utf-8")
+    assert page.index("Verdict:") < page.index("Statistics")

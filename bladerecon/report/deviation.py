@@ -382,8 +382,17 @@ def write_analysis_report(obj: Any, folder: str) -> dict:
     if obj.Nominal is None:
         raise BladeReconError(f"{obj.Label}: no nominal linked: set its 'Nominal' property")
     nominal = Nominal(obj.Nominal.Shape, obj.Nominal.Label)
-    res = measure_deviation(ps.points, nominal, obj.Alignment, obj.Tolerance, source=ps.source,
-                            robust=bool(obj.RobustFit))
+    inspection = None
+    if getattr(obj, "Plan", ""):                    # issue 19: the plan's fit and the verdicts
+        from bladerecon.core.inspection.plan import read_inspection_plan
+        from bladerecon.fc.inspection import inspect_measured
+
+        inspection = inspect_measured(ps, nominal, read_inspection_plan(obj.Plan), tolerance=obj.Tolerance,
+                                      robust=bool(obj.RobustFit), nominal_name=obj.Nominal.Label)
+        res = inspection.result
+    else:
+        res = measure_deviation(ps.points, nominal, obj.Alignment, obj.Tolerance, source=ps.source,
+                                robust=bool(obj.RobustFit))
     s = res.stats
     al = res.alignment
     summary = {key: s[key] for key in ("points", "max", "min", "mean", "std", "rms", "within_tolerance_pct",
@@ -394,6 +403,10 @@ def write_analysis_report(obj: Any, folder: str) -> dict:
         nominal={"file": obj.Nominal.Label, "faces": nominal.n_faces, "size_mm": nominal.size,
                  "method": "+".join(res.deviation.methods)},
         units="mm", measured=ps.source)
+    if inspection is not None:
+        v = inspection.verdicts
+        summary.update(verdict=v["verdict"], sections=v["sections"], fit=v["fit"], inspection_plan=v["plan"],
+                       section_parameters=inspection.table)
     surface = core_surface(obj.Surface) if obj.Surface is not None else None
     write_deviation_report(folder, summary, res, nominal, ps.section, ps.section_names, surface)
     return summary
