@@ -109,3 +109,30 @@ def test_plan_errors_are_one_line(tmp_path):
     r = run("deviation", SAMPLE / "measured_plan.csv", "--nominal", SAMPLE / "nominal.step",
             "--plan", ROOT / "bladerecon" / "samples" / "inspection_plan.toml", "--align", "translate")
     assert r.returncode == 2 and "fit.mode" in r.stderr
+
+
+@pytest.mark.timeout(600)
+def test_sections_plan_judges_the_parameters(tmp_path):
+    """``sections --nominal --plan``: every row gets its parameters judged against the plan's
+    limits; an edge too sparse for a radius (--lenient) fails with the reason."""
+    plan = tmp_path / "plan.toml"
+    plan.write_text(TIGHT.replace("le_radius  = [-0.005, 0.005]", "le_radius  = [-0.005, 0.005]\n"
+                                  "te_radius  = [-0.03, 0.03]"), encoding="utf-8")
+    r = run("sections", SAMPLE / "measured_plan.csv", "--nominal", SAMPLE / "nominal.step", "--plan", plan,
+            "--lenient", "--json", "--quiet")
+    assert r.returncode == 0, r.stderr[-3000:]
+    rows = json.loads(r.stdout)
+    assert len(rows) == 6
+    for row in rows:
+        assert set(row["parameters"]) == {"chord", "le_radius", "te_radius"}
+        for key, p in row["parameters"].items():
+            lo, hi = p["limits"]
+            if row["difference"][key] is None:
+                assert not p["pass"] and "not measured" in p["note"]
+                continue
+            assert p["difference"] == pytest.approx(row["difference"][key])
+            assert p["pass"] == (lo <= p["difference"] <= hi)
+        assert row["verdict"] == ("pass" if all(p["pass"] for p in row["parameters"].values()) else "fail")
+    assert any(row["difference"]["te_radius"] is None for row in rows)       # 4 points on those TE circles
+    r = run("sections", SAMPLE / "measured_plan.csv", "--plan", plan)
+    assert r.returncode == 2 and "--nominal" in r.stderr

@@ -35,7 +35,7 @@ from bladerecon.core.errors import BladeReconError
 from bladerecon.core.inspection.plan import PARAMETERS, ZONES, InspectionPlan
 
 __all__ = ["LEADING_EDGE", "TRAILING_EDGE", "FLANKS", "point_zones", "halfwidths", "zone_table",
-           "section_fit", "inspect_blade"]
+           "section_fit", "parameter_verdicts", "inspect_blade"]
 
 LEADING_EDGE, TRAILING_EDGE, FLANKS = 0, 1, 2
 
@@ -115,7 +115,9 @@ def section_fit(points: np.ndarray, normals: np.ndarray, d: np.ndarray, span_axi
                        "rotation_deg": float(np.degrees(theta))}
 
 
-def _parameter_verdicts(plan: InspectionPlan, row: dict | None) -> dict:
+def parameter_verdicts(plan: InspectionPlan, row: dict | None) -> dict:
+    """{parameter: {"value", "nominal", "difference", "limits", "pass"}} of one measured-vs-nominal
+    row (mm, degrees) for the parameters the plan limits; unmeasurable ones fail with a note."""
     out = {}
     for key in PARAMETERS:
         if key not in plan.limits:
@@ -166,7 +168,7 @@ def inspect_blade(plan: InspectionPlan, points: np.ndarray, deviation: np.ndarra
             entry["form"] = {**zone_table(d_form, zone[sel], tols), "motion": motion}
         params = {}
         if parameter_rows is not None and plan.limits:
-            params = _parameter_verdicts(plan, parameter_rows[k] if k < len(parameter_rows) else None)
+            params = parameter_verdicts(plan, parameter_rows[k] if k < len(parameter_rows) else None)
         if plan.position is not None:
             _, shift = section_fit(P[sel], n[sel], d[sel], span_axis, "translate")
             off = shift["shift_length_mm"]
