@@ -74,4 +74,6 @@ def test_bad_files(tmp_path):
     with pytest.raises(BladeReconError, match="not valid TOML"):
         read_inspection_plan(_write(tmp_path, "[profile\nflanks = 0.08"))
     with pytest.raises(BladeReconError, match="nothing to check"):
-        read_inspection_plan(_write(tmp_path, '[fit]\nmode = "zone"\n'))
+        read_inspection_plan(_write(tmp_path, '[fit]\nmode = "rigid"\n'))
+    with pytest.raises(BladeReconError, match="fit.mode"):
+        read_inspection_plan(_write(tmp_path, '[fit]\nmode = "zone"\n[parameters]\nchord = [-0.1, 0.1]\n'))

@@ -169,6 +169,9 @@ def parse_inspection_plan(data: dict, source: str = "plan") -> InspectionPlan:
                                   f"half-widths, e.g. {{ flanks = 0.10 }}")
         _unknown(table, ZONES, f"sections.{key}.", src)
         overrides[str(key)] = {z: _half_width(v, f"sections.{key}.{z}", src) for z, v in table.items()}
+    if mode == "zone" and not profile and not overrides:
+        raise BladeReconError(f"inspection plan {src}: fit.mode = \"zone\" fits the points into their profile "
+                              "zones: give [profile] half-widths")
     if not profile and not limits and position is None and not overrides:
         raise BladeReconError(f"inspection plan {src}: nothing to check: give [profile] zones or "
                               "[parameters] limits")
