@@ -752,11 +752,15 @@ class ViewProviderDeviationAnalysis(_ViewProvider):
         dev = np.array(obj.Deviations, float)
         if len(dev) and len(obj.AlignedPoints) == len(dev):
             lim = self.limit(dev)
-            self.points.set(np.array([(p.x, p.y, p.z) for p in obj.AlignedPoints]), colormap.deviation_colours(dev, lim))
+            P = np.array([(p.x, p.y, p.z) for p in obj.AlignedPoints])
+            self.points.set(P, colormap.deviation_colours(dev, lim))
             _deviation_legend(self.legend, "points", lim, obj.Tolerance)
-            if hasattr(self, "verdict_points"):
-                self.verdict_points.set(np.array([(p.x, p.y, p.z) for p in obj.AlignedPoints]),
-                                        colormap.verdict_colours(_point_sections(obj), list(getattr(obj, "SectionVerdicts", []))))
+            verdicts = list(getattr(obj, "SectionVerdicts", []))
+            if hasattr(self, "verdict_points"):   # drawn only with a plan: a large scan costs the GUI thread
+                if verdicts:
+                    self.verdict_points.set(P, colormap.verdict_colours(_point_sections(obj), verdicts))
+                else:
+                    self.verdict_points.set(P[:0], P[:0])
         surface = self.surface_showing_me()
         if surface is not None:
             surface.ViewObject.Proxy.refresh_deviation()
