@@ -28,25 +28,21 @@ class InspectionResult:
 
 
 def _point_zones(pointset, ss) -> np.ndarray:
-    """Zone of every point of ``pointset`` (file order) from the segmentation of its ordered sections."""
+    """Zone of every point of ``pointset`` (file order) from the segmentation of its ordered
+    sections. Points are matched by their coordinates (a section holds no repeated point:
+    build_sections refuses them), so any file layout maps back; a dropped closing point
+    takes its nearest neighbour's zone."""
     from scipy.spatial import cKDTree
 
     from bladerecon.core.inspection.verdicts import FLANKS, point_zones
 
     zones = point_zones([s.points for s in ss.sections], ss.span_axis, not ss.sections[0].reordered)
-    where = {int(line): i for i, line in enumerate(pointset.line)}
-    out = np.full(len(pointset.points), -1, dtype=int)
-    for s, z in zip(ss.sections, zones):
-        out[[where[int(line)] for line in s.lines]] = z
-    for k in np.unique(pointset.section[out < 0]):         # a dropped closing point: its nearest neighbour's
-        sel = pointset.section == k
-        known = np.flatnonzero(sel & (out >= 0))
-        missing = np.flatnonzero(sel & (out < 0))
-        if len(known) == 0:
-            out[missing] = FLANKS
-            continue
-        _, j = cKDTree(pointset.points[known]).query(pointset.points[missing])
-        out[missing] = out[known[j]]
+    P = np.asarray(pointset.points, float)
+    out = np.full(len(P), FLANKS, dtype=int)
+    for k, (s, z) in enumerate(zip(ss.sections, zones)):
+        mine = np.flatnonzero(np.asarray(pointset.section) == k)
+        _, j = cKDTree(s.points).query(P[mine])
+        out[mine] = z[j]
     return out
 
 
