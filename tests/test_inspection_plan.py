@@ -77,3 +77,10 @@ def test_bad_files(tmp_path):
         read_inspection_plan(_write(tmp_path, '[fit]\nmode = "rigid"\n'))
     with pytest.raises(BladeReconError, match="fit.mode"):
         read_inspection_plan(_write(tmp_path, '[fit]\nmode = "zone"\n[parameters]\nchord = [-0.1, 0.1]\n'))
+
+
+def test_hostile_keys_are_shown_escaped(tmp_path):
+    path = _write(tmp_path, '[profile]\n"flanks\\u001b[31m" = 0.08\n')
+    with pytest.raises(BladeReconError) as err:
+        read_inspection_plan(path)
+    assert "\x1b" not in str(err.value) and "profile.flanks" in str(err.value)

@@ -30,6 +30,7 @@ import os
 from dataclasses import dataclass, field
 
 from bladerecon.core.errors import BladeReconError
+from bladerecon.core.io.outputs import shown
 
 __all__ = ["InspectionPlan", "ZONES", "PARAMETERS", "FIT_MODES", "PER_SECTION_MODES",
            "read_inspection_plan", "parse_inspection_plan"]
@@ -80,9 +81,10 @@ def read_inspection_plan(path: str | os.PathLike) -> InspectionPlan:
     """Read and check an inspection plan TOML file (see the module docstring)."""
     import tomllib
 
-    name = os.fspath(path)
+    name = shown(os.fspath(path), limit=1000)
     try:
-        with open(name, "rb") as fh:
+        path = os.fspath(path)
+        with open(path, "rb") as fh:
             data = tomllib.load(fh)
     except FileNotFoundError:
         raise BladeReconError(f"inspection plan {name}: no such file") from None
@@ -123,7 +125,8 @@ def _table(data: dict, key: str, src: str) -> dict:
 def _unknown(table: dict, allowed, where: str, src: str) -> None:
     for k in table:
         if k not in allowed:
-            raise BladeReconError(f"inspection plan {src}: unknown key {where}{k}: use one of {', '.join(allowed)}")
+            raise BladeReconError(f"inspection plan {src}: unknown key {where}{shown(k)}: use one of "
+                                  f"{', '.join(allowed)}")
 
 
 def _limits(value, key: str, src: str) -> tuple[float, float]:
@@ -139,7 +142,7 @@ def _limits(value, key: str, src: str) -> tuple[float, float]:
 
 def parse_inspection_plan(data: dict, source: str = "plan") -> InspectionPlan:
     """Check a plan given as the dict ``tomllib`` returns; ``source`` names it in messages."""
-    src = source
+    src = shown(source, limit=1000)
     _unknown(data, ("profile", "parameters", "fit", "sections"), "", src)
     profile_t = _table(data, "profile", src)
     _unknown(profile_t, ZONES, "profile.", src)
@@ -163,12 +166,13 @@ def parse_inspection_plan(data: dict, source: str = "plan") -> InspectionPlan:
                               f"{', '.join(PER_SECTION_MODES)}")
 
     overrides = {}
-    for key, table in _table(data, "sections", src).items():
+    for raw_key, table in _table(data, "sections", src).items():
+        key = shown(raw_key)
         if not isinstance(table, dict):
             raise BladeReconError(f"inspection plan {src}: sections.{key} = {table!r}: give a table of zone "
                                   f"half-widths, e.g. {{ flanks = 0.10 }}")
         _unknown(table, ZONES, f"sections.{key}.", src)
-        overrides[str(key)] = {z: _half_width(v, f"sections.{key}.{z}", src) for z, v in table.items()}
+        overrides[str(raw_key)] = {z: _half_width(v, f"sections.{key}.{z}", src) for z, v in table.items()}
     if mode == "zone" and not profile and not overrides:
         raise BladeReconError(f"inspection plan {src}: fit.mode = \"zone\" fits the points into their profile "
                               "zones: give [profile] half-widths")
