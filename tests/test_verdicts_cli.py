@@ -111,6 +111,9 @@ def test_plan_errors_are_one_line(tmp_path):
     r = run("deviation", SAMPLE / "measured_plan.csv", "--nominal", SAMPLE / "nominal.step",
             "--plan", ROOT / "bladerecon" / "samples" / "inspection_plan.toml", "--align", "translate")
     assert r.returncode == 2 and "fit.mode" in r.stderr
+    r = run("deviation", SAMPLE / "nominal.step", "--nominal", SAMPLE / "nominal.step",
+            "--plan", ROOT / "bladerecon" / "samples" / "inspection_plan.toml")
+    assert r.returncode == 2 and "point file" in r.stderr and len(r.stderr.strip().splitlines()) == 1
 
 
 @pytest.mark.timeout(600)

@@ -64,6 +64,9 @@ def _check_outputs(args) -> None:
         from bladerecon.core.inspection.plan import read_inspection_plan
 
         check_input(args.plan, "--plan")
+        if os.path.splitext(args.measured)[1].lower() in (".step", ".stp", ".iges", ".igs", ".brep", ".brp", ".fcstd"):
+            raise BladeReconError(f"--plan judges measured sections: give the point file, not the surface "
+                                  f"{args.measured}")
         args.inspection_plan = read_inspection_plan(args.plan)
         if args.align != "none" and args.align != args.inspection_plan.fit_mode:
             raise BladeReconError(f"--align {args.align} and the plan's fit.mode = "
@@ -125,7 +128,7 @@ def _run(args: argparse.Namespace, temps: dict) -> dict:
         _say(args, f"best fit ({args.align})")
     inspection = None
     if args.inspection_plan is not None:
-        inspection = _inspect(args, surface, nominal)
+        inspection = _inspect(args, nominal)
         res = inspection.result
     else:
         res = measure_deviation(points, nominal, args.align, args.tolerance, source=args.measured,
@@ -166,13 +169,11 @@ def _run(args: argparse.Namespace, temps: dict) -> dict:
     return summary
 
 
-def _inspect(args, surface, nominal):
+def _inspect(args, nominal):
     """``--plan``: the plan's fit, the deviations and the verdicts (bladerecon.fc.inspection)."""
     from bladerecon.core.io.readers import read_points
     from bladerecon.fc.inspection import inspect_measured
 
-    if surface is not None:
-        raise BladeReconError(f"--plan judges measured sections: give the point file, not the surface {args.measured}")
     return inspect_measured(read_points(args.measured, require_sections=False), nominal, args.inspection_plan,
                             tolerance=args.tolerance, robust=args.robust, nominal_name=args.nominal,
                             say=lambda msg: _say(args, msg))
