@@ -36,6 +36,9 @@ def add_parser(sub) -> None:
                         "pull; the points it weighted out are counted in the summary")
     d.add_argument("--tolerance", type=positive(), default=0.03, metavar="MM",
                    help="profile tolerance ±MM for within_tolerance_pct (default 0.03)")
+    d.add_argument("--plan", metavar="PLAN.toml",
+                   help="inspection plan (TOML: profile zones per LE/TE/flanks, parameter limits, fit mode "
+                        "incl. the minimax 'zone' fit): adds the pass/fail verdicts; see docs/verdicts.md")
     d.add_argument("--csv", metavar="FILE", help="write x,y,z,deviation,nx,ny,nz,face per point")
     d.add_argument("--report", metavar="DIR", help="write report.html with plots and deviations.csv into DIR")
     d.add_argument("--aligned", metavar="FILE",
@@ -56,9 +59,22 @@ def _say(args, msg: str) -> None:
 
 
 def _check_outputs(args) -> None:
-    if args.aligned and args.align == "none":
+    args.inspection_plan = None
+    if getattr(args, "plan", None):
+        from bladerecon.core.inspection.plan import read_inspection_plan
+
+        check_input(args.plan, "--plan")
+        if os.path.splitext(args.measured)[1].lower() in (".step", ".stp", ".iges", ".igs", ".brep", ".brp", ".fcstd"):
+            raise BladeReconError(f"--plan judges measured sections: give the point file, not the surface "
+                                  f"{args.measured}")
+        args.inspection_plan = read_inspection_plan(args.plan)
+        if args.align != "none" and args.align != args.inspection_plan.fit_mode:
+            raise BladeReconError(f"--align {args.align} and the plan's fit.mode = "
+                                  f"\"{args.inspection_plan.fit_mode}\" differ: with --plan the plan's [fit] decides")
+    fitted = args.align != "none" or (args.inspection_plan is not None and args.inspection_plan.fit_mode != "none")
+    if args.aligned and not fitted:
         raise BladeReconError("--aligned writes the best-fitted input: add --align rigid|translate|rotate-z")
-    if args.robust and args.align == "none":
+    if args.robust and not fitted:
         raise BladeReconError("--robust is a kind of best fit: add --align rigid|translate|rotate-z")
     if not args.tolerance > 0:
         raise BladeReconError(f"--tolerance {args.tolerance}: give a positive tolerance in mm")
@@ -110,7 +126,13 @@ def _run(args: argparse.Namespace, temps: dict) -> dict:
     t_read = time.perf_counter()
     if args.align != "none":
         _say(args, f"best fit ({args.align})")
-    res = measure_deviation(points, nominal, args.align, args.tolerance, source=args.measured, robust=args.robust)
+    inspection = None
+    if args.inspection_plan is not None:
+        inspection = _inspect(args, nominal)
+        res = inspection.result
+    else:
+        res = measure_deviation(points, nominal, args.align, args.tolerance, source=args.measured,
+                                robust=args.robust)
     s = res.stats
     _say(args, f"deviation max {s['max'] * 1000:.1f} µm, min {s['min'] * 1000:.1f} µm, "
                f"{s['within_tolerance_pct']:.1f} % within ±{args.tolerance} mm")
@@ -131,7 +153,13 @@ def _run(args: argparse.Namespace, temps: dict) -> dict:
     t_done = time.perf_counter()
     summary["seconds"] = {"read": t_read - t0, "align": res.seconds["align"], "measure": res.seconds["measure"],
                           "total": t_done - t0}
-    if args.report and section is not None:
+    if inspection is not None:
+        v = inspection.verdicts
+        summary.update(verdict=v["verdict"], sections=v["sections"], fit=v["fit"], inspection_plan=v["plan"])
+        _say(args, f"verdict: {v['verdict']}")
+        if args.report:
+            summary["section_parameters"] = inspection.table
+    elif args.report and section is not None:
         summary["sections"] = _section_table(args, res, nominal)
     if args.report:
         from bladerecon.report.deviation import write_deviation_report
@@ -139,6 +167,16 @@ def _run(args: argparse.Namespace, temps: dict) -> dict:
         summary["seconds"]["report"] = time.perf_counter() - t_done
         summary["seconds"]["total"] = time.perf_counter() - t0
     return summary
+
+
+def _inspect(args, nominal):
+    """``--plan``: the plan's fit, the deviations and the verdicts (bladerecon.fc.inspection)."""
+    from bladerecon.core.io.readers import read_points
+    from bladerecon.fc.inspection import inspect_measured
+
+    return inspect_measured(read_points(args.measured, require_sections=False), nominal, args.inspection_plan,
+                            tolerance=args.tolerance, robust=args.robust, nominal_name=args.nominal,
+                            say=lambda msg: _say(args, msg))
 
 
 def _section_table(args, res, nominal) -> dict:

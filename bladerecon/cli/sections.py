@@ -58,6 +58,9 @@ def add_parser(sub) -> None:
     p.add_argument("--force", action="store_true",
                    help="write the plots into an existing folder that holds files (files of the same names are "
                         "replaced, others kept); without it such a folder is refused")
+    p.add_argument("--plan", metavar="PLAN.toml",
+                   help="with --nominal: judge every section's parameters against the inspection plan's "
+                        "[parameters] limits (pass/fail per parameter and section; docs/verdicts.md)")
     p.add_argument("--json", action="store_true", help="print the list of sections as JSON on stdout")
     p.add_argument("--quiet", action="store_true", help="no progress messages on stderr")
     one_line_errors(p)
@@ -111,10 +114,13 @@ def run_sections(args: argparse.Namespace) -> list:
     throat = _throat(args)
     check_input(args.input, "INPUT")
     check_input(args.nominal, "--nominal")
+    plan = _inspection_plan(args)
     with Outputs(inputs=(args.input, args.nominal)) as outs:
         plots = outs.folder(args.plots, "--plots", force=args.force)
         out = _run(args, offsets, throat, plots)
         outs.commit()
+    if plan is not None:
+        _judge(args, plan, out)
     if args.plots:
         _say(args, f"plots in {args.plots}")
     for o in out:
@@ -150,6 +156,35 @@ def _run(args, offsets, throat, plots) -> list:
         for s, p, ns in zip(segs, params, nsegs):
             plot_section(os.path.join(plots, f"section_{s.index:02d}.png"), s, p, ns)
     return out
+
+
+def _inspection_plan(args):
+    """``--plan``: the inspection plan, read before any work; it needs --nominal and [parameters]."""
+    if not getattr(args, "plan", None):
+        return None
+    from bladerecon.core.inspection.plan import read_inspection_plan
+
+    check_input(args.plan, "--plan")
+    plan = read_inspection_plan(args.plan)
+    if not args.nominal:
+        raise BladeReconError("--plan judges measured − nominal: add --nominal NOMINAL")
+    if not plan.limits:
+        raise BladeReconError(f"--plan {args.plan}: no [parameters] limits to judge sections by (profile zones "
+                              "need the deviation: use 'deviation --plan')")
+    return plan
+
+
+def _judge(args, plan, out: list) -> None:
+    """Add "parameters" (each limited parameter: value, nominal, difference, limits, pass) and
+    "verdict" to every section row."""
+    from bladerecon.core.inspection.verdicts import parameter_verdicts
+
+    for row in out:
+        row["parameters"] = parameter_verdicts(plan, row)
+        row["verdict"] = "pass" if all(v["pass"] for v in row["parameters"].values()) else "fail"
+    blade = "pass" if all(row["verdict"] == "pass" for row in out) else "fail"
+    failed = [f"{row['index']}: {k}" for row in out for k, v in row["parameters"].items() if not v["pass"]]
+    _say(args, f"verdict: {blade}" + (f" ({', '.join(failed)})" if failed else ""))
 
 
 def _fmt(v) -> str:

@@ -470,6 +470,12 @@ class DeviationAnalysis(_Feature):
         ("App::PropertyBool", "RobustFit", "Input",
          "robust best fit (Tukey biweight): a worn or damaged zone does not pull the alignment", 0),
         ("App::PropertyFloat", "Tolerance", "Input", "profile tolerance ±mm", 0),
+        ("App::PropertyFile", "Plan", "Input", "inspection plan (TOML, docs/verdicts.md): pass/fail per section, "
+                                               "zone and parameter; its [fit] replaces Alignment", 0),
+        ("App::PropertyString", "Verdict", "Verdict", "pass or fail against the Plan (empty without a plan)", 1),
+        ("App::PropertyStringList", "SectionVerdicts", "Verdict", "per section: pass, or fail and what failed", 1),
+        ("App::PropertyFloat", "MaxNormalised", "Verdict",
+         "largest |deviation| / zone half-width after the plan's fit (<= 1: inside every zone)", 1),
         ("App::PropertyInteger", "PointCount", "Statistics", "points compared", 1),
         ("App::PropertyFloat", "Max", "Statistics", "largest signed deviation (mm)", 1),
         ("App::PropertyFloat", "Min", "Statistics", "smallest signed deviation (mm)", 1),
@@ -502,13 +508,14 @@ class DeviationAnalysis(_Feature):
 
     def compute(self, obj: Any) -> None:
         inputs = (obj.Measured, obj.Nominal, obj.Surface, obj.Alignment, obj.Tolerance, bool(obj.RobustFit))
+        plan = getattr(obj, "Plan", "") or ""
         ready, self.precomputed = getattr(self, "precomputed", None), None
-        if ready is not None and ready[0] == deviation_key(*inputs):   # measured off the GUI thread for these
+        if ready is not None and ready[0] == deviation_key(*inputs, plan=plan):   # measured off the GUI thread
             outcome = ready[1]
             if isinstance(outcome, BaseException):
                 raise outcome
         else:
-            job = deviation_job(*inputs, obj.Label)
+            job = deviation_job(*inputs, obj.Label, plan=plan)
             with _Progress(f"{obj.Label}: measuring against {job.nominal_label}", 3) as progress:
                 outcome = measure_job(job, progress.step)
         store_measurement(obj, outcome)
@@ -536,6 +543,8 @@ class DeviationJob:
     tolerance: float
     robust: bool
     key: tuple
+    plan: str = ""                  # inspection plan file (issue 19), "" for none
+    pointset: Any = None            # the measured PointSet (sections) when there is a plan
 
 
 @dataclass
@@ -547,10 +556,11 @@ class DeviationMeasurement:
     grid_deviation: Any
     grid_size: list
     matrix: np.ndarray
+    verdicts: dict | None = None    # inspect_blade's JSON when the job had a plan
 
 
 def deviation_job(measured: Any, nominal: Any, surface: Any, alignment: str, tolerance: float, robust: bool,
-                  label: str = "Deviation analysis", copy_shape: bool = False) -> DeviationJob:
+                  label: str = "Deviation analysis", copy_shape: bool = False, plan: str = "") -> DeviationJob:
     """The :class:`DeviationJob` of these inputs (document objects), checked: one-line errors.
     ``copy_shape``: the job holds a copy of the nominal's shape (to measure in a worker thread
     while the document may change)."""
@@ -566,12 +576,18 @@ def deviation_job(measured: Any, nominal: Any, surface: Any, alignment: str, tol
         raise BladeReconError(f"{label}: Tolerance {tolerance}: give a positive tolerance in mm")
     core = core_surface(surface) if surface is not None else None
     points = np.ascontiguousarray(ps.points, float)
+    if plan:
+        from bladerecon.core.inspection.plan import read_inspection_plan
+
+        read_inspection_plan(plan)                      # a bad plan: its one-line error now, not in the worker
     return DeviationJob(points, ps.source, shape.copy() if copy_shape else shape, nominal.Label, core, alignment,
                         float(tolerance), bool(robust), deviation_key(measured, nominal, surface, alignment, tolerance,
-                                                                      robust))
+                                                                      robust, plan=plan),
+                        plan, ps if plan else None)
 
 
-def deviation_key(measured: Any, nominal: Any, surface: Any, alignment: str, tolerance: float, robust: bool) -> tuple:
+def deviation_key(measured: Any, nominal: Any, surface: Any, alignment: str, tolerance: float, robust: bool,
+                  plan: str = "") -> tuple:
     """What names the inputs of a measurement without reading them: the objects, their shapes
     (a MeasuredPoints gets a new shape whenever its points change: a recompute makes it), the
     options."""
@@ -580,8 +596,18 @@ def deviation_key(measured: Any, nominal: Any, surface: Any, alignment: str, tol
         shape = getattr(o, "Shape", None)
         return None if o is None else (o.Name, None if shape is None or shape.isNull() else shape.hashCode())
 
-    return (shape_of(measured), getattr(measured, "PointCount", None), shape_of(nominal), shape_of(surface),
-            alignment, float(tolerance), bool(robust))
+    key = (shape_of(measured), getattr(measured, "PointCount", None), shape_of(nominal), shape_of(surface),
+           alignment, float(tolerance), bool(robust))
+    return key + ((plan, _mtime(plan)),) if plan else key
+
+
+def _mtime(path: str) -> float | None:
+    import os
+
+    try:
+        return os.path.getmtime(path)
+    except OSError:
+        return None
 
 
 def measure_job(job: DeviationJob, step: Any = None) -> DeviationMeasurement:
@@ -598,7 +624,20 @@ def measure_job(job: DeviationJob, step: Any = None) -> DeviationMeasurement:
     if job.surface is not None:
         g = surface_grid(job.surface, MAP_SAMPLES_PER_SPAN, MAP_SAMPLES_SPAN)[2]
         grid, size = g.reshape(-1, 3), list(g.shape[:2])
-    if job.alignment == "none":
+    verdicts = None
+    if job.plan:
+        from bladerecon.core.inspection.plan import read_inspection_plan
+        from bladerecon.fc.inspection import inspect_measured
+
+        inspection = inspect_measured(job.pointset, nominal, read_inspection_plan(job.plan), tolerance=job.tolerance,
+                                      robust=job.robust, nominal_name=job.nominal_label)
+        res, verdicts = inspection.result, inspection.verdicts
+        step()
+        if len(grid):
+            if res.alignment is not None:
+                grid = apply_transform(grid, res.alignment.matrix)
+            grid_dev = nominal.measure(grid).signed
+    elif job.alignment == "none":
         # one projection for points and surface grid: its set-up is most of the cost
         res, grid_dev = _measure_together(job.points, grid, nominal, job.tolerance, job.source)
         step()
@@ -611,7 +650,7 @@ def measure_job(job: DeviationJob, step: Any = None) -> DeviationMeasurement:
             grid_dev = nominal.measure(grid).signed
     matrix = res.alignment.matrix if res.alignment is not None else np.eye(4)
     step()
-    return DeviationMeasurement(res, grid, grid_dev, size, matrix)
+    return DeviationMeasurement(res, grid, grid_dev, size, matrix, verdicts)
 
 
 def store_measurement(obj: Any, m: DeviationMeasurement) -> None:
@@ -632,6 +671,26 @@ def store_measurement(obj: Any, m: DeviationMeasurement) -> None:
     obj.SurfaceDeviations = [float(x) for x in m.grid_deviation]
     obj.SurfaceGrid = _vectors(grid) if len(grid) else []
     obj.SurfaceGridSize = [int(x) for x in m.grid_size]
+    if "Verdict" in obj.PropertiesList:
+        _store_verdicts(obj, m.verdicts)
+
+
+def _store_verdicts(obj: Any, verdicts: dict | None) -> None:
+    """Verdict, SectionVerdicts ('label: pass' or 'label: fail: what failed'), MaxNormalised."""
+    if verdicts is None:
+        obj.Verdict, obj.SectionVerdicts, obj.MaxNormalised = "", [], 0.0
+        return
+    lines = []
+    for s in verdicts["sections"]:
+        zones = s["form"] if s.get("form") else s["profile"]
+        failed = [f"{k} {v['min'] * 1000:+.1f}/{v['max'] * 1000:+.1f} µm (±{v['tol'] * 1000:g})"
+                  for k, v in zones.items() if k != "motion" and not v["pass"]]
+        failed += [k if v["difference"] is None else f"{k} {v['difference']:+.4f}"
+                   for k, v in s["parameters"].items() if not v["pass"]]
+        lines.append(f"{s['label']}: {s['verdict']}" + (": " + ", ".join(failed) if failed else ""))
+    obj.Verdict = verdicts["verdict"]
+    obj.SectionVerdicts = lines
+    obj.MaxNormalised = float(verdicts["fit"].get("max_normalised") or 0.0)
 
 
 def _measure_together(points: np.ndarray, extra: np.ndarray, nominal, tolerance: float, source: str):
@@ -653,7 +712,8 @@ def _measure_together(points: np.ndarray, extra: np.ndarray, nominal, tolerance:
 
 
 def make_deviation_analysis(doc: Any, measured: Any, nominal: Any, surface: Any = None, alignment: str = "none",
-                            tolerance: float = 0.03, name: str = "DeviationAnalysis", robust: bool = False) -> Any:
+                            tolerance: float = 0.03, name: str = "DeviationAnalysis", robust: bool = False,
+                            plan: str = "") -> Any:
     obj = doc.addObject("App::FeaturePython", name)
     DeviationAnalysis(obj)
     obj.Label = "Deviation analysis"
@@ -661,6 +721,7 @@ def make_deviation_analysis(doc: Any, measured: Any, nominal: Any, surface: Any 
     obj.Alignment = alignment
     obj.RobustFit = bool(robust)
     obj.Tolerance = float(tolerance)
+    obj.Plan = plan
     _attach_view(obj, "DeviationAnalysis")
     return obj
 

@@ -11,7 +11,7 @@ import numpy as np
 
 from bladerecon.core.analysis.surface_analysis import zebra
 
-__all__ = ["DIVERGING", "diverging", "deviation_colours", "deviation_limit", "curvature_colours", "curvature_scale",
+__all__ = ["verdict_colours", "DIVERGING", "diverging", "deviation_colours", "deviation_limit", "curvature_colours", "curvature_scale",
            "symlog_position",
            "zebra_colours", "section_colours", "grid_normals", "legend_ticks", "STRIPE_AXES"]
 
@@ -140,3 +140,23 @@ def legend_ticks(limit: float, tolerance: float | None, unit: str = "mm") -> lis
     if tolerance is not None and 0 < tolerance < limit:
         ticks += [(-tolerance, f"-tol {label(tolerance)[1:]}"), (tolerance, f"+tol {label(tolerance)[1:]}")]
     return sorted(ticks)
+
+
+#: pass / fail / not judged colours of the Verdict display mode (as the report's table)
+VERDICT_PASS, VERDICT_FAIL, VERDICT_NONE = (0.10, 0.65, 0.15), (0.85, 0.10, 0.10), (0.6, 0.6, 0.6)
+
+
+def verdict_colours(section: np.ndarray, section_verdicts: list[str]) -> np.ndarray:
+    """RGB per point: green where its section passes, red where it fails, grey where there is
+    no verdict. ``section_verdicts`` are DeviationAnalysis.SectionVerdicts lines, in section
+    order (``"label: pass"`` or ``"label: fail: ..."``)."""
+    import re
+
+    said = [re.search(r": (pass|fail)(:|$)", line) for line in section_verdicts]
+    ok = np.array([m.group(1) if m else "" for m in said])
+    rgb = np.tile(np.array(VERDICT_NONE), (len(section), 1))
+    known = (section >= 0) & (section < len(ok))
+    verdict = np.where(known, ok[np.clip(section, 0, max(len(ok) - 1, 0))] if len(ok) else "", "")
+    rgb[verdict == "pass"] = VERDICT_PASS
+    rgb[verdict == "fail"] = VERDICT_FAIL
+    return rgb

@@ -608,6 +608,9 @@ class ViewProviderDeviationAnalysis(_ViewProvider):
 
     ``HiddenByMap``: the points hidden under the points map (shown again when it goes);
     ``HiddenByCompare``: the nominal Compare hid (shown again when this object is deleted).
+
+    Display mode ``Verdict`` (with an inspection Plan): the measured points of every section in
+    green where the section passes, red where it fails (``SectionVerdicts``, issue 19).
     """
 
     ICON = "BladeRecon_DeviationMap"
@@ -633,6 +636,8 @@ class ViewProviderDeviationAnalysis(_ViewProvider):
         sep.addChild(self.legend.node)
         vobj.addDisplayMode(sep, "Points")
         vobj.addDisplayMode(coin.SoSeparator(), "Surface")
+        self.verdict_points = ColouredPoints(vobj.PointSize)
+        vobj.addDisplayMode(self.verdict_points.node, "Verdict")
         self._update(vobj.Object)
         if _restoring(vobj):          # once the document (and its view properties) is read
             self._later(self._bring_back_the_map, 0)
@@ -674,7 +679,7 @@ class ViewProviderDeviationAnalysis(_ViewProvider):
                                  f"now shown on {surface.Label}\n")
 
     def getDisplayModes(self, vobj: Any) -> list[str]:  # noqa: N802
-        return ["Surface", "Points"]
+        return ["Surface", "Points", "Verdict"]
 
     def getDefaultDisplayMode(self) -> str:  # noqa: N802
         return "Surface"
@@ -683,8 +688,8 @@ class ViewProviderDeviationAnalysis(_ViewProvider):
         return []
 
     def updateData(self, obj: Any, prop: str) -> None:  # noqa: N802
-        if prop in ("Deviations", "AlignedPoints", "SurfaceDeviations", "SurfaceGrid", "SurfaceGridSize", "Tolerance") \
-                and hasattr(self, "points"):
+        if prop in ("Deviations", "AlignedPoints", "SurfaceDeviations", "SurfaceGrid", "SurfaceGridSize", "Tolerance",
+                    "SectionVerdicts") and hasattr(self, "points"):
             if _busy(obj):        # a recompute or a file sets them one by one: draw once, after
                 if not getattr(self, "pending", False):
                     self.pending = True
@@ -712,6 +717,8 @@ class ViewProviderDeviationAnalysis(_ViewProvider):
             self._update(vobj.Object)
         elif prop == "PointSize":
             self.points.style.pointSize = vobj.PointSize
+            if hasattr(self, "verdict_points"):
+                self.verdict_points.style.pointSize = vobj.PointSize
         elif prop in ("DisplayMode", "Visibility"):
             on_points = vobj.DisplayMode == "Points" and vobj.Visibility
             was_on, self.on_points = getattr(self, "on_points", False), on_points
@@ -745,11 +752,25 @@ class ViewProviderDeviationAnalysis(_ViewProvider):
         dev = np.array(obj.Deviations, float)
         if len(dev) and len(obj.AlignedPoints) == len(dev):
             lim = self.limit(dev)
-            self.points.set(np.array([(p.x, p.y, p.z) for p in obj.AlignedPoints]), colormap.deviation_colours(dev, lim))
+            P = np.array([(p.x, p.y, p.z) for p in obj.AlignedPoints])
+            self.points.set(P, colormap.deviation_colours(dev, lim))
             _deviation_legend(self.legend, "points", lim, obj.Tolerance)
+            verdicts = list(getattr(obj, "SectionVerdicts", []))
+            if hasattr(self, "verdict_points"):   # drawn only with a plan: a large scan costs the GUI thread
+                if verdicts:
+                    self.verdict_points.set(P, colormap.verdict_colours(_point_sections(obj), verdicts))
+                else:
+                    self.verdict_points.set(P[:0], P[:0])
         surface = self.surface_showing_me()
         if surface is not None:
             surface.ViewObject.Proxy.refresh_deviation()
+
+
+def _point_sections(obj: Any) -> np.ndarray:
+    """Section index of every measured point of a DeviationAnalysis (-1 when unknown)."""
+    measured = getattr(obj, "Measured", None)
+    index = np.array(getattr(measured, "SectionIndex", []) or [], dtype=int)
+    return index if len(index) == len(obj.Deviations) else np.full(len(obj.Deviations), -1)
 
 
 # --------------------------------------------------------------------------- failed recomputes

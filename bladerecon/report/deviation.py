@@ -275,7 +275,10 @@ def _html(summary: dict, images: list[tuple[str, str]]) -> str:
         align += (f"<tr><th>robust fit (Tukey biweight)</th><td>{a['points_weighted_out']} points weighted out "
                   f"(|residual| beyond {a['robust_cutoff_mm'] * 1000:.3f} µm from the median)</td></tr>")
     nominal = summary["nominal"]
-    sections = _sections_html(summary.get("sections"))
+    table = summary.get("section_parameters", summary.get("sections"))
+    sections = _sections_html(table if isinstance(table, dict) else None)
+    from bladerecon.report.verdicts import verdicts_html
+    verdicts = verdicts_html(summary)
     figs = "\n".join(f'<figure><img src="{f}" alt="{html.escape(c)}"><figcaption>{html.escape(c)}</figcaption></figure>'
                      for f, c in images)
     return f"""<!DOCTYPE html>
@@ -288,6 +291,7 @@ th{{background:#eef}}img{{max-width:100%;border:1px solid #ddd}}figure{{margin:1
 <p>Measured: <code>{html.escape(str(summary.get('measured', '')))}</code> · nominal: <code>{html.escape(nominal['file'])}</code>
 ({nominal['faces']} face(s), {html.escape(nominal['method'])}) · all lengths in mm, deviations in µm,
 + where material lies outside the nominal.</p>
+{verdicts}
 <div style="display:flex;gap:2em;flex-wrap:wrap">
 <div><h2>Statistics</h2><table>{stats}</table></div>
 <div><h2>Alignment</h2><table>{align}</table></div></div>
@@ -322,7 +326,8 @@ def _write_deviation_report(folder, summary, result, nominal, section, names, me
         P, d = result.points, dev.signed
         d_um, tol_um = d * 1000.0, summary["tolerance"] * 1000.0
         write_deviation_csv(os.path.join(tmp, "deviations.csv"), P, dev)
-        images = []
+        from bladerecon.report.verdicts import verdict_plots
+        images = verdict_plots(tmp, summary)
         sub = _subsample(len(P))
         if dev.u is not None and np.isfinite(dev.u).any():
             ok = sub[np.isfinite(dev.u[sub])]
@@ -377,8 +382,17 @@ def write_analysis_report(obj: Any, folder: str) -> dict:
     if obj.Nominal is None:
         raise BladeReconError(f"{obj.Label}: no nominal linked: set its 'Nominal' property")
     nominal = Nominal(obj.Nominal.Shape, obj.Nominal.Label)
-    res = measure_deviation(ps.points, nominal, obj.Alignment, obj.Tolerance, source=ps.source,
-                            robust=bool(obj.RobustFit))
+    inspection = None
+    if getattr(obj, "Plan", ""):                    # issue 19: the plan's fit and the verdicts
+        from bladerecon.core.inspection.plan import read_inspection_plan
+        from bladerecon.fc.inspection import inspect_measured
+
+        inspection = inspect_measured(ps, nominal, read_inspection_plan(obj.Plan), tolerance=obj.Tolerance,
+                                      robust=bool(obj.RobustFit), nominal_name=obj.Nominal.Label)
+        res = inspection.result
+    else:
+        res = measure_deviation(ps.points, nominal, obj.Alignment, obj.Tolerance, source=ps.source,
+                                robust=bool(obj.RobustFit))
     s = res.stats
     al = res.alignment
     summary = {key: s[key] for key in ("points", "max", "min", "mean", "std", "rms", "within_tolerance_pct",
@@ -389,6 +403,10 @@ def write_analysis_report(obj: Any, folder: str) -> dict:
         nominal={"file": obj.Nominal.Label, "faces": nominal.n_faces, "size_mm": nominal.size,
                  "method": "+".join(res.deviation.methods)},
         units="mm", measured=ps.source)
+    if inspection is not None:
+        v = inspection.verdicts
+        summary.update(verdict=v["verdict"], sections=v["sections"], fit=v["fit"], inspection_plan=v["plan"],
+                       section_parameters=inspection.table)
     surface = core_surface(obj.Surface) if obj.Surface is not None else None
     write_deviation_report(folder, summary, res, nominal, ps.section, ps.section_names, surface)
     return summary
