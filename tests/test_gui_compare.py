@@ -155,7 +155,10 @@ def test_compare_of_a_large_scan_runs_off_the_gui_thread(compare_run):
     assert c["analyses"] == 1 and c["status"] == "ok" and c["points"] == c["n_dev"] == N_SECTIONS * PER_SECTION
     assert c["max_abs"] < 0.02 and c["undo"] == ["Compare with nominal"]
     assert c["mode"] == "Points" and c["visible"]                   # no surface: the map is on the points
-    assert c["progress_bar_seen"] and c["longest_gap_s"] < 1.0, c   # the GUI kept ticking
+    # The GUI kept ticking: work on the GUI thread would stop the 50 ms timer for the whole
+    # compare (gap ≈ its duration). Judged against the duration, not a wall-clock bound, so a
+    # loaded machine (everything slower alike) does not fail it; 1 s is always allowed.
+    assert c["progress_bar_seen"] and c["longest_gap_s"] < max(1.0, 0.4 * c["seconds"]), c
     assert "Traceback" not in c["report"]
     assert legend_pixels(image(out / "big_compare.png")) > 500
     assert result["after_undo"] == 0 and result["after_redo"] == 1
