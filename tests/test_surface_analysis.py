@@ -106,3 +106,87 @@ def test_zebra_flat_is_constant_and_bands_alternate():
     assert np.allclose(np.diff(tilt[changes]), np.pi / 24, atol=2e-3)
     s = zebra(n, view=(0, 0, -1), stripe_axis=(0, 1, 0), smooth=True)
     assert s.min() >= 0 and s.max() <= 1
+
+
+def skewed_saddle() -> BSplineSurface:
+    """z = xy over a skewed parameterisation x = u + v/2, y = v: degree 1 in u, 2 in v, exact.
+    F = S_u·S_v and M = S_uv·n are nowhere zero, so every term of K, H and the principal
+    directions counts (a sphere or a cylinder in orthogonal parameters has F = M = 0)."""
+    x = np.array([[0.0, 0.25, 0.5], [1.0, 1.25, 1.5]])        # Bézier coefficients in v, at u = 0 and 1
+    y = np.array([[0.0, 0.5, 1.0], [0.0, 0.5, 1.0]])
+    z = np.array([[0.0, 0.0, 0.5], [0.0, 0.5, 1.5]])         # u v + v²/2 = x y
+    return BSplineSurface(np.stack([x, y, z], axis=-1), np.array([0.0, 1.0]), np.array([2, 2]),
+                          np.array([0.0, 1.0]), np.array([3, 3]), 1, 2, False, False)
+
+
+def test_curvatures_and_directions_of_a_skewed_saddle_against_the_monge_patch():
+    """Closed form of z = f(x, y) = xy (a Monge patch, do Carmo §3-3 ex. 5): with W² = 1 + x² + y²,
+    K = -1/W⁴ and, for the upward normal (which S_u x S_v is here), the textbook H = -xy/W³; this
+    module's convex-positive sign makes it +xy/W³. Principal directions: eigenvectors of the
+    shape operator I⁻¹ II in (x, y), lifted to (dx, dy, y dx + x dy)."""
+    from bladerecon.core.geometry.bspline import evaluate_surface
+
+    s = skewed_saddle()
+    rng = np.random.default_rng(3)
+    u, v = rng.uniform(0.05, 0.95, 200), rng.uniform(0.05, 0.95, 200)
+    p = evaluate_surface(s, u, v)
+    x, y = p[:, 0], p[:, 1]
+    assert np.allclose(p[:, 2], x * y, atol=1e-12)              # the surface is the saddle
+    c = surface_curvature(s, u, v)
+    W2 = 1.0 + x ** 2 + y ** 2
+    K, H = -1.0 / W2 ** 2, x * y / W2 ** 1.5
+    assert np.allclose(c.gaussian, K, rtol=1e-9, atol=1e-12)
+    assert np.allclose(c.mean, H, rtol=1e-9, atol=1e-12)
+    root = np.sqrt(H ** 2 - K)
+    assert np.allclose(c.k1, H + root, rtol=1e-9) and np.allclose(c.k2, H - root, rtol=1e-9)
+    assert np.allclose(c.normal, np.column_stack([-y, -x, np.ones_like(x)]) / np.sqrt(W2)[:, None], atol=1e-12)
+    for i in range(len(x)):
+        first = np.array([[1 + y[i] ** 2, x[i] * y[i]], [x[i] * y[i], 1 + x[i] ** 2]])
+        second = -np.array([[0.0, 1.0], [1.0, 0.0]]) / np.sqrt(W2[i])      # convex-positive sign
+        k, vec = np.linalg.eig(np.linalg.solve(first, second))
+        for kk, d in ((c.k1[i], c.dir1[i]), (c.k2[i], c.dir2[i])):
+            a = vec[:, np.argmin(np.abs(k - kk))].real
+            e = np.array([a[0], a[1], y[i] * a[0] + x[i] * a[1]])
+            assert abs(abs(d @ e) / np.linalg.norm(e) - 1.0) < 1e-9, (i, d, e)
+            assert abs(np.linalg.norm(d) - 1.0) < 1e-12
+
+
+def test_section_curvature_of_a_parabolic_cylinder_in_closed_form():
+    """S(u, v) = (u, v, a u²), exact at degree (2, 1): the section at v is the parabola
+    z = a u², κ = 2a / (1 + 4a²u²)^{3/2}; S_u x S_v points up, into the parabola's hollow, so
+    the convex-positive sign makes it negative. The samples run over the whole open domain."""
+    a = 0.2
+    poles = np.zeros((3, 2, 3))
+    for i, (x, z) in enumerate(((-2.0, 0.8), (0.0, -0.8), (2.0, 0.8))):   # a u² on [-2, 2]: Bézier
+        for j, y in enumerate((0.0, 5.0)):
+            poles[i, j] = (x, y, z)
+    s = BSplineSurface(poles, np.array([0.0, 1.0]), np.array([3, 3]), np.array([0.0, 1.0]), np.array([2, 2]),
+                       2, 1, False, False)
+    u, pts, kappa, normal = section_curvature(s, 0.3, 101)
+    assert u[0] == 0.0 and u[-1] == 1.0 and len(u) == 101
+    x = pts[:, 0]
+    assert np.allclose(pts[:, 1], 1.5) and np.allclose(pts[:, 2], a * x ** 2, atol=1e-12)
+    assert np.allclose(kappa, -2 * a / (1 + 4 * a * a * x ** 2) ** 1.5, rtol=1e-9)
+    up = np.column_stack([-2 * a * x, np.zeros_like(x), np.ones_like(x)])
+    assert np.allclose(normal, up / np.linalg.norm(up, axis=1)[:, None], atol=1e-12)
+    # flipped normal: the same curve reads convex
+    assert np.allclose(section_curvature(s, 0.3, 101, normal_sign=-1.0)[2], -kappa, rtol=1e-12)
+
+
+def test_zebra_depends_only_on_the_reflection_angle_about_the_stripe_axis():
+    """The light is a cylinder of bands about the stripe axis: turning every normal about that
+    axis (the default view looks along it) by one band period (2π/12) leaves the picture, by
+    half a period inverts it; the view's length does not matter."""
+    rng = np.random.default_rng(8)
+    n = rng.normal(size=(500, 3))
+    n /= np.linalg.norm(n, axis=1)[:, None]
+
+    def turned(angle):
+        c, s_ = np.cos(angle), np.sin(angle)
+        return n @ np.array([[c, -s_, 0.0], [s_, c, 0.0], [0.0, 0.0, 1.0]]).T
+
+    base = zebra(n, smooth=True)
+    assert np.allclose(zebra(turned(2 * np.pi / 12), smooth=True), base, atol=1e-9)
+    assert np.allclose(zebra(turned(np.pi / 12), smooth=True), 1.0 - base, atol=1e-9)
+    assert np.allclose(zebra(n, view=(0.0, 0.0, -3.0), smooth=True), base, atol=1e-12)
+    assert np.array_equal(zebra(n), (base >= 0.5).astype(float))
