@@ -152,7 +152,7 @@ def _run_blade(job: dict) -> dict:
     ns = argparse.Namespace(measured=job["file"], nominal=job["nominal"], align=opts["align"],
                             robust=opts["robust"], tolerance=opts["tolerance"], csv="deviations.csv",
                             report="report" if opts["report"] else None, aligned=None, force=False,
-                            json=True, quiet=True)
+                            json=True, quiet=True, plan=None, inspection_plan=None)
     check_input(job["file"], "MEASURED")
     check_input(job["nominal"], "--nominal")
     moved = _move_aside(job["out"])
