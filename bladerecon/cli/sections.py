@@ -20,7 +20,7 @@ from bladerecon.core.errors import BladeReconError
 from bladerecon.core.io.outputs import (Outputs, check_coordinates, check_input, check_samples, finite,
                                         one_line_errors, positive, shown)
 
-__all__ = ["add_parser", "run_sections"]
+__all__ = ["add_parser", "run_sections", "flow_direction"]
 
 SHAPE_SUFFIXES = (".step", ".stp", ".iges", ".igs", ".brep", ".brp", ".fcstd")
 
@@ -35,6 +35,18 @@ def _floats(text: str, what: str) -> tuple[float, ...]:
     return values
 
 
+def flow_direction(text: str) -> np.ndarray:
+    """argparse ``type`` of ``--flow X,Y,Z``: the direction the fluid travels (unit vector)."""
+    try:
+        v = np.array([float(x) for x in text.split(",")], float)
+    except ValueError:
+        v = np.zeros(0)
+    if v.shape != (3,) or not np.all(np.isfinite(v)) or np.linalg.norm(v) < 1e-12:
+        raise argparse.ArgumentTypeError(f"'{shown(text)}': give the flow direction as three numbers X,Y,Z "
+                                         "(not all zero), e.g. 1,0,0")
+    return v / np.linalg.norm(v)
+
+
 def add_parser(sub) -> None:
     p = sub.add_parser("sections", help="section parameters (chord, stagger, thickness, LE/TE radius, angles)",
                        description="Segment every section (LE, TE, suction, pressure) and measure its "
@@ -42,6 +54,9 @@ def add_parser(sub) -> None:
     p.add_argument("input", help="point file with sections (any format 'reconstruct' reads)")
     p.add_argument("--nominal", help="nominal: STEP/IGES/BREP/FCStd (cut in each section's plane) or a section file")
     p.add_argument("--plots", metavar="DIR", help="write section_NN.png per section (segmentation coloured)")
+    p.add_argument("--flow", type=flow_direction, metavar="X,Y,Z",
+                   help="direction the fluid travels: the leading edge is the upstream end of every section "
+                        "(without it the LE is guessed: the blunter end on most sections, with a warning)")
     p.add_argument("--offsets", default="", metavar="MM,...", help="thickness at these distances from LE and TE")
     p.add_argument("--beta1", type=finite(-89.9, 89.9, "degrees"),
                    help="inlet flow angle (deg from axial) for the throat point (eq. 5)")
@@ -124,13 +139,19 @@ def run_sections(args: argparse.Namespace) -> list:
 
 
 def _run(args, offsets, throat, plots) -> list:
-    from bladerecon.core.sections.parameters import compare_with_nominal, measure_section, segment_sections
+    from bladerecon.core.sections.parameters import compare_with_nominal, measure_section, segment_blade
 
     _say(args, f"reading {args.input}")
-    pts, axis, measured_start = _read_sections(args.input)
-    segs = segment_sections(pts, axis, measured_start, throat=throat, max_gap=args.max_gap)
+    pts, axis, _ = _read_sections(args.input)
+    blade = segment_blade(pts, axis, throat=throat, max_gap=args.max_gap, flow=getattr(args, "flow", None))
+    if blade.warning:
+        _say(args, f"warning: {blade.warning}")
+    segs = blade.sections
     params = [measure_section(s, offsets, strict_radius=not args.lenient) for s in segs]
-    out = [p.as_dict() for p in params]
+    out = [{**p.as_dict(), "le_rule": blade.le_rule} for p in params]
+    if blade.warning:
+        for o in out:
+            o["warnings"] = [blade.warning, *o["warnings"]]
     if args.nominal:
         _say(args, f"nominal {args.nominal}")
         nom_pts = _nominal_sections(args, segs, axis)

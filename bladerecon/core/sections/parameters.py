@@ -36,7 +36,8 @@ from bladerecon.core.errors import BladeReconError
 from bladerecon.core.sections.segmentation import LE, PRESSURE, SUCTION, TE, Segmentation
 
 __all__ = ["SectionParameters", "measure_section", "segment_sections", "fit_circle", "inscribed_circles", "MIN_EDGE_POINTS",
-           "PARAMETER_KEYS", "compare_with_nominal"]
+           "PARAMETER_KEYS", "compare_with_nominal",
+           "LE_RULES", "BladeSegmentation", "canonical_loop", "segment_blade"]
 
 #: measured points an edge region needs for a radius fit (3 define a circle; 5 give redundancy)
 MIN_EDGE_POINTS = 5
@@ -300,22 +301,101 @@ def compare_with_nominal(measured: dict, nominal: dict) -> dict:
     return row
 
 
-def segment_sections(section_points: list[np.ndarray], span_axis: np.ndarray | None = None,
-                     first_point_is_measured: bool = True, throat=None, max_gap: float | None = None
-                     ) -> list[Segmentation]:
-    """Segment every section of a blade, keeping the LE on the same end from section to section.
+#: how the leading edge was chosen (``"le_rule"`` in the JSON): the flow direction given;
+#: the end where the file's first point lies (a guess); the blunter end by a vote of all
+#: sections (a guess)
+LE_RULES = ("flow", "first_point", "blunter_edge")
 
-    The first section's LE is the end where its first point lies when the measurement starts
-    at an edge (section tables, CMM plans), otherwise its blunter end; every further section
-    takes the end nearest the previous LE.
+
+@dataclass(frozen=True)
+class BladeSegmentation:
+    """Every section segmented with one leading-edge rule for the whole blade."""
+
+    sections: list
+    le_rule: str                 # one of :data:`LE_RULES`
+    warning: str | None          # set when the rule was a guess
+
+
+def canonical_loop(points: np.ndarray, span_axis: np.ndarray | None = None) -> np.ndarray:
+    """The same closed loop (n, 3) counter-clockwise about the span axis (or its best-fit
+    normal), starting at its point of largest x (then y, z): the rows are bitwise the same
+    whichever point the measurement started at and whichever way it ran, so every figure
+    measured from them is too (issue 24 §5)."""
+    P = np.asarray(points, float)
+    a = np.array([0.0, 0.0, 1.0]) if span_axis is None else np.asarray(span_axis, float)
+    c = P - P.mean(axis=0)
+    n = np.linalg.svd(c, full_matrices=False)[2][-1]
+    if abs(n @ a) < 0.2:            # a section lying along the span axis: use its own normal
+        a = n
+    nxt = np.roll(c, -1, axis=0)
+    area = float(np.cross(c, nxt).sum(axis=0) @ a)
+    if area < 0:
+        P = P[::-1]
+    start = int(np.lexsort((P[:, 2], P[:, 1], P[:, 0]))[-1])
+    return np.roll(P, -start, axis=0)
+
+
+def _region_mean_curvature(seg: Segmentation, region: int) -> float:
+    from bladerecon.core.sections.segmentation import signed_curvature
+    a, b = seg.region_interval(region)
+    t = a + (b - a) * (np.arange(64) + 0.5) / 64
+    lo, hi = seg.curve.domain
+    return float(np.mean(signed_curvature(seg.curve, lo + np.mod(t - lo, hi - lo))))
+
+
+def segment_blade(section_points: list[np.ndarray], span_axis: np.ndarray | None = None,
+                  first_point_is_measured: bool = False, throat=None, max_gap: float | None = None,
+                  flow: np.ndarray | None = None, canonical: bool = True) -> BladeSegmentation:
+    """Segment every section with one leading-edge rule for the whole blade (issue 24 §1).
+
+    ``flow`` (3D direction the fluid travels): the LE of every section is its upstream end.
+    Without it, ``first_point_is_measured`` names the end where the first section's first
+    point lies the LE (when it lies at an end), and otherwise all sections vote: the LE is
+    the end that is blunter (lower mean curvature over its edge region) on most sections.
+    Every further section takes the end nearest the previous LE, so no section is turned
+    the other way. ``canonical``: measure each loop from :func:`canonical_loop` (figures
+    independent of the start point and direction).
     """
     from bladerecon.core.reconstruct import first_point_edge_hint
     from bladerecon.core.sections.segmentation import segment_section
 
-    hint = first_point_edge_hint(section_points[0]) if first_point_is_measured else None
-    out = []
-    for k, p in enumerate(section_points):
-        seg = segment_section(p, k, span_axis, le_hint=hint, throat=throat, max_gap=max_gap)
-        hint = seg.lift(seg.le)[0]
-        out.append(seg)
-    return out
+    hint = first_point_edge_hint(section_points[0]) if (first_point_is_measured and flow is None) else None
+    if flow is not None:
+        f = np.asarray(flow, float)
+        if f.shape != (3,) or not np.all(np.isfinite(f)) or np.linalg.norm(f) < 1e-12:
+            raise BladeReconError(f"flow direction {f.tolist()}: give three numbers X,Y,Z, not all zero")
+        flow = f / np.linalg.norm(f)
+        rule, warning = "flow", None
+    elif hint is not None:
+        rule = "first_point"
+        warning = ("leading edge guessed: the end where the first section's first point lies; "
+                   "give the flow direction (--flow X,Y,Z) to be sure")
+    else:
+        rule = "blunter_edge"
+        warning = ("leading edge guessed: the blunter end on most sections; "
+                   "give the flow direction (--flow X,Y,Z) to be sure")
+    loops = [canonical_loop(p, span_axis) if canonical else np.asarray(p, float) for p in section_points]
+
+    def run(first_hint):
+        out, h = [], first_hint
+        for k, p in enumerate(loops):
+            seg = segment_section(p, k, span_axis, le_hint=h, throat=throat, max_gap=max_gap, flow=flow)
+            h = seg.lift(seg.le)[0]
+            out.append(seg)
+        return out
+
+    segs = run(hint)
+    if rule == "blunter_edge":
+        sharper_le = sum(_region_mean_curvature(s, LE) > _region_mean_curvature(s, TE) for s in segs)
+        if 2 * sharper_le > len(segs):       # most sections say the other end is the LE
+            segs = run(segs[0].lift(segs[0].te)[0])
+    return BladeSegmentation(segs, rule, warning)
+
+
+def segment_sections(section_points: list[np.ndarray], span_axis: np.ndarray | None = None,
+                     first_point_is_measured: bool = True, throat=None, max_gap: float | None = None,
+                     flow: np.ndarray | None = None, canonical: bool = False) -> list[Segmentation]:
+    """Segment every section of a blade, keeping the LE on the same end from section to section
+    (:func:`segment_blade`; this keeps the measured order of the points unless ``canonical``)."""
+    return segment_blade(section_points, span_axis, first_point_is_measured, throat, max_gap, flow,
+                         canonical).sections
