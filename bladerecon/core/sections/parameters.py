@@ -42,6 +42,12 @@ __all__ = ["SectionParameters", "measure_section", "segment_sections", "fit_circ
 #: measured points an edge region needs for a radius fit (3 define a circle; 5 give redundancy)
 MIN_EDGE_POINTS = 5
 _HALF_SAMPLES = 5000
+#: chord fractions tried, narrowest first, for the flank windows of the edge G1 condition
+FLANK_WINDOWS = (0.25, 0.4)
+#: arc points lie this many radii ahead of the edge circle's centre along the camber tangent: the
+#: flanks touch the circle ahead of its centre where the blade thickens (sin of the wedge half-angle)
+ARC_AHEAD = 0.25
+FLANK_DEGREE = 3
 
 
 @dataclass(frozen=True)
@@ -71,6 +77,9 @@ class SectionParameters:
     throat: dict | None = None
     warnings: tuple = ()
     chord_in_plane: float = 0.0       # chord in the section plane (= chord for planar sections)
+    le_fit: dict | None = None        # edge-circle fit: arc_points, flank_points (2), rms (mm)
+    te_fit: dict | None = None
+    gauges: dict = field(default_factory=dict)   # named gauge measurements (see measure_section)
 
     def as_dict(self) -> dict:
         d = {"index": self.index, "points": self.points, "le": self.le.tolist(), "te": self.te.tolist(),
@@ -79,7 +88,8 @@ class SectionParameters:
              "le_radius": self.le_radius, "te_radius": self.te_radius,
              "inlet_angle_deg": self.inlet_angle_deg, "outlet_angle_deg": self.outlet_angle_deg,
              "chord_in_plane": self.chord_in_plane, "thickness_at": self.thickness_at, "le_fit_points": self.le_fit_points,
-             "te_fit_points": self.te_fit_points, "warnings": list(self.warnings)}
+             "te_fit_points": self.te_fit_points, "le_fit": self.le_fit, "te_fit": self.te_fit,
+             **self.gauges, "warnings": list(self.warnings)}
         if self.throat is not None:
             d["throat"] = {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in self.throat.items()}
         return d
@@ -181,8 +191,8 @@ def _inside(pts: np.ndarray, loop: np.ndarray) -> np.ndarray:
 
 
 def _edge_points(seg: Segmentation, region: int, trim: float = 0.15) -> np.ndarray:
-    """Measured points of an edge region, without the ``trim`` fraction next to each joint
-    when enough remain (2x :data:`MIN_EDGE_POINTS`); sparse plans keep every edge point."""
+    """Measured points of an edge region by the curvature joints (the old, region-only evidence),
+    without the ``trim`` fraction next to each joint when enough remain."""
     a, b = seg.region_interval(region)
     w = b - a
     rel = np.mod(seg.t_points - a, seg.period)
@@ -192,17 +202,138 @@ def _edge_points(seg: Segmentation, region: int, trim: float = 0.15) -> np.ndarr
     return seg.points2d[m]
 
 
-def _edge_radius(seg: Segmentation, region: int, name: str) -> tuple[np.ndarray, float, int]:
-    q = _edge_points(seg, region)
-    if len(q) < MIN_EDGE_POINTS:
+@dataclass(frozen=True)
+class EdgeCircle:
+    """An edge circle fitted with all the evidence (in-plane mm): centre, radius, the measured
+    points on the arc, the flank points that set the G1 condition, the rms of the arc residuals."""
+
+    centre: np.ndarray
+    radius: float
+    arc_points: int
+    flank_points: tuple[int, int]
+    rms: float
+    axis: np.ndarray           # the camber line's tangent at the edge, pointing into the blade
+
+
+def _flank_model(x: np.ndarray, y: np.ndarray):
+    """Polynomial y(x) of one flank next to the edge (edge-local frame; degree 2, 1 when sparse)
+    with what its uncertainty needs: (coefficients, x shift, (VᵀV)⁻¹ of the fit)."""
+    if len(x) < 2:
+        return None
+    deg = FLANK_DEGREE if len(x) >= 12 else (2 if len(x) >= 4 else 1)
+    xm = x.mean()
+    V = np.vander(x - xm, deg + 1)
+    coef = np.linalg.lstsq(V, y, rcond=None)[0]
+    return coef, xm, np.linalg.pinv(V.T @ V)
+
+
+def _foot_on_flank(c: np.ndarray, model) -> tuple[float, float]:
+    """Distance from c to the curve y = f(x) and the leverage of the fit at the foot point
+    (Newton on the foot, from x = c_x): the G1 residual's variance is σ² times the leverage."""
+    coef, xm, inv = model
+    d1, d2 = np.polyder(coef), np.polyder(coef, 2)
+    x = c[0] - xm
+    for _ in range(8):
+        f, f1, f2 = np.polyval(coef, x), np.polyval(d1, x), np.polyval(d2, x)
+        g = (x - (c[0] - xm)) + (f - c[1]) * f1
+        gp = 1 + f1 * f1 + (f - c[1]) * f2
+        step = g / gp if abs(gp) > 1e-12 else 0.0
+        x -= step
+        if abs(step) < 1e-13:
+            break
+    v = x ** np.arange(len(coef) - 1, -1, -1)
+    return float(np.hypot(x - (c[0] - xm), np.polyval(coef, x) - c[1])), float(v @ inv @ v)
+
+
+def _edge_circle(seg: Segmentation, region: int, cam: np.ndarray, rad: np.ndarray) -> EdgeCircle | None:
+    """The edge circle from all the evidence (issue 24 §3).
+
+    Works in an edge-local frame: origin the edge point, x into the blade along the chord, y
+    across. The arc points are the measured points beyond the circle's centre (towards the
+    edge); the flank points are those 0.5 r to 8 % of the chord behind it, each side fitted by
+    a quadratic y(x) and split by the camber line (the inscribed-circle centres ``cam``).
+    Unknowns (centre, radius) by least squares on the arc residuals ``|p − c| − r`` plus the G1
+    condition to both flanks, ``dist(c, flank) − r``, weighted as ``sqrt(n_flank)/2`` points:
+    one arc point and two flanks already fix the circle. Repeated until the point split stops
+    changing. None when no measured point lies on the edge side of the centre.
+    """
+    from scipy.optimize import least_squares
+
+    at_le = region == LE
+    u = (seg.te - seg.le) / seg.chord
+    e = seg.le if at_le else seg.te
+    L = seg.chord
+    # x along the camber line's tangent at the edge (into the blade): the arc is symmetric about it
+    d0 = u if at_le else -u
+    xc, yc = (cam - e) @ d0, (cam - e) @ np.array([-d0[1], d0[0]])
+    near = xc <= 0.15 * L
+    if near.sum() < 4:
+        near = np.argsort(xc)[:8]
+    slope = np.polyval(np.polyder(np.polyfit(xc[near], yc[near], 2)), float(rad[np.argmin(xc)]))
+    ax = (d0 + slope * np.array([-d0[1], d0[0]])) / np.hypot(1.0, slope)
+    ay = np.array([-ax[1], ax[0]])
+    q = seg.points2d - e
+    X, Y = q @ ax, q @ ay
+    cq = cam - e
+    cx, cy = cq @ ax, cq @ ay
+    order = np.argsort(cx)
+    cx, cy, rr = cx[order], cy[order], rad[order]
+    r = float(rr[0])
+    c = np.array([r, float(np.interp(r, cx, cy))])
+    split_prev = None
+    for _ in range(8):
+        arc = (X - c[0]) <= -ARC_AHEAD * r
+        if not arc.any():
+            arc = X == X.min()
+        lo_x = c[0] + 0.5 * r
+        side = Y - np.interp(X, cx, cy)
+        models, counts = [], []
+        for sgn in (1, -1):
+            for width in FLANK_WINDOWS:
+                m = (X >= lo_x) & (X <= lo_x + width * L) & (np.sign(side) == sgn)
+                if m.sum() >= 5:
+                    break
+            models.append(_flank_model(X[m], Y[m]))
+            counts.append(int(m.sum()))
+        split = (arc.tobytes(), tuple(counts))
+        pa = np.column_stack([X[arc], Y[arc]])
+
+        def resid(z):
+            cc, rz = z[:2], z[2]
+            out = [np.linalg.norm(pa - cc, axis=1) - rz]
+            for mod in models:
+                if mod is not None:     # G1: weighted as a point of the flank's noise, extrapolated
+                    dist, lev = _foot_on_flank(cc, mod)
+                    out.append(np.array([(dist - rz) / np.sqrt(max(lev, 1e-3))]))
+            return np.concatenate(out)
+
+        z0 = np.array([c[0], c[1], r])
+        if resid(z0).size < 3:
+            if len(pa) >= 3:
+                c0, r0, _ = fit_circle(pa)
+                z0 = np.array([c0[0], c0[1], r0])
+            else:
+                return None
+        else:
+            z0 = least_squares(resid, z0, method="lm", xtol=1e-15, ftol=1e-15, gtol=1e-15).x
+        c, r = z0[:2], float(z0[2])
+        if split == split_prev:
+            break
+        split_prev = split
+    if not (np.isfinite(r) and 0 < r < 0.5 * L):
+        return None
+    res = np.linalg.norm(pa - c, axis=1) - r
+    centre = e + c[0] * ax + c[1] * ay
+    return EdgeCircle(centre, r, int(len(pa)), (counts[0], counts[1]), float(np.sqrt(np.mean(res ** 2))), ax)
+
+
+def _edge_radius(seg: Segmentation, region: int, name: str, cam: np.ndarray, rad: np.ndarray) -> EdgeCircle:
+    ec = _edge_circle(seg, region, cam, rad)
+    if ec is None:
         raise BladeReconError(
-            f"section {seg.index}: the {name} region has {len(q)} measured points, a radius fit needs at least "
-            f"{MIN_EDGE_POINTS}: measure more points on the {name}")
-    c, r, _ = fit_circle(q)
-    if not np.isfinite(r) or r > 0.5 * seg.chord:
-        raise BladeReconError(f"section {seg.index}: the {name} points do not fit a circle (radius {r:.3g} mm): "
-                              "check the edge measurement")
-    return c, r, len(q)
+            f"section {seg.index}: no measured point on the {name} beyond its circle's centre: "
+            f"measure points round the {name}")
+    return ec
 
 
 def _angle_deg(v: np.ndarray) -> float:
@@ -226,61 +357,136 @@ def _metal_angle(seg: Segmentation, c: np.ndarray, at_le: bool, centre: np.ndarr
     return _angle_deg(d)
 
 
+def _ends_from_circles(seg: Segmentation, le_c, le_r, te_c, te_r) -> tuple[np.ndarray, np.ndarray]:
+    """LE and TE points: the ends of the section along its chord. With both edge circles fitted,
+    the points of the circles farthest apart along the line of their centres (the sample
+    generator's and the packages' chord definition, and free of the interpolant's overshoot
+    where an edge is sparsely measured); otherwise the segmentation's ends."""
+    if le_r is None or te_r is None:
+        return seg.le, seg.te
+    d = te_c - le_c
+    u = d / np.linalg.norm(d)
+    return le_c - le_r * u, te_c + te_r * u
+
+
+def _chord_normal_thickness(loop: np.ndarray, le: np.ndarray, u: np.ndarray, xs) -> list:
+    """Thickness perpendicular to the chord at chordwise distances xs from the LE (mm): the
+    distance between the outermost crossings of the profile with that line; None off the profile."""
+    v = np.array([-u[1], u[0]])
+    X, Y = (loop - le) @ u, (loop - le) @ v
+    X2, Y2 = np.roll(X, -1), np.roll(Y, -1)
+    out = []
+    for x in xs:
+        m = (X - x) * (X2 - x) <= 0
+        m &= X != X2
+        if m.sum() < 2:
+            out.append(None)
+            continue
+        y = Y[m] + (x - X[m]) * (Y2[m] - Y[m]) / (X2[m] - X[m])
+        out.append(float(y.max() - y.min()))
+    return out
+
+
 def measure_section(seg: Segmentation, offsets: tuple[float, ...] = (), n_points: int | None = None,
-                    strict_radius: bool = True) -> SectionParameters:
+                    strict_radius: bool = True, fractions: tuple[float, ...] = ()) -> SectionParameters:
     """All parameters of one segmented section (see the module docstring). mm, degrees.
 
-    An edge region with fewer than :data:`MIN_EDGE_POINTS` measured points raises
-    :class:`BladeReconError` (section, edge, points had/needed); with ``strict_radius=False``
-    that radius is None instead and the message goes to ``warnings``.
+    An edge with no measured point beyond its circle's centre raises :class:`BladeReconError`
+    (section, edge); with ``strict_radius=False`` that radius is None instead and the message
+    goes to ``warnings``. ``offsets``: distances (mm) from LE and TE, ``fractions``: chord
+    fractions, where the thickness is measured in both conventions (camber-line normal:
+    the inscribed circle's diameter; chord normal: across the line ⟂ chord).
     """
-    u = (seg.te - seg.le) / seg.chord
     c, r = inscribed_circles(seg)
-    x = (c - seg.le) @ u
+    edges, warnings, fits, axes = [], [], [], []
+    for region, name in ((LE, "leading edge"), (TE, "trailing edge")):
+        try:
+            ec = _edge_radius(seg, region, name, c, r)
+            edges.append((ec.centre, ec.radius, ec.arc_points))
+            fits.append({"arc_points": ec.arc_points, "flank_points": list(ec.flank_points), "rms": ec.rms})
+            axes.append(ec.axis)
+            if ec.arc_points < 2:
+                warnings.append(f"section {seg.index}: the {name} radius rests on {ec.arc_points} measured point "
+                                "on its arc and the flanks' tangency: measure more points round the edge")
+        except BladeReconError as err:
+            if strict_radius:
+                raise
+            warnings.append(str(err))
+            edges.append((seg.le if region == LE else seg.te, None, 0))
+            fits.append(None)
+            axes.append(None)
+    (le_c, le_r, le_n), (te_c, te_r, te_n) = edges
+    le2, te2 = _ends_from_circles(seg, le_c, le_r, te_c, te_r)
+    chord2 = float(np.linalg.norm(te2 - le2))
+    u = (te2 - le2) / chord2
+    x = (c - le2) @ u
+    order = np.argsort(x)
+    c, r, x = c[order], r[order], x[order]
+    r_max, x_max = _max_circle(x, r)
+    lo, hi = seg.curve.domain
+    loop = evaluate_curve(seg.curve, lo + (hi - lo) * np.arange(_LOOP_SAMPLES) / _LOOP_SAMPLES)
+    thickness_at, thickness_cn = {}, {}
+    for off in offsets:
+        for name, xx in (("le", off), ("te", chord2 - off)):
+            val = float(2 * np.interp(xx, x, r)) if x[0] <= xx <= x[-1] else None
+            thickness_at[f"{name}+{off:g}"] = val
+            thickness_cn[f"{name}+{off:g}"] = _chord_normal_thickness(loop, le2, u, [xx])[0]
+    frac_cam, frac_cn = {}, {}
+    for f in fractions:
+        xx = f * chord2
+        frac_cam[f"{f:g}"] = float(2 * np.interp(xx, x, r)) if x[0] <= xx <= x[-1] else None
+        frac_cn[f"{f:g}"] = _chord_normal_thickness(loop, le2, u, [xx])[0]
+    # camber height: the inscribed centres' largest distance from the chord (towards the suction side > 0)
+    v = np.array([-u[1], u[0]])
+    yc = (c - le2) @ v
+    k_c = int(np.argmax(np.abs(yc)))
+    area, centroid = _area_centroid(loop)
+    le3, te3 = seg.lift(le2)[0], seg.lift(te2)[0]
+    inlet = _metal_angle(seg, c, True, le_c)
+    outlet = _metal_angle(seg, c, False, te_c)
+    ends_camber = [None if (cc is None or rr_ is None or ax is None) else seg.lift(cc - rr_ * ax)[0].tolist()
+                   for cc, rr_, ax in ((le_c, le_r, axes[0]), (te_c, te_r, axes[1]))]
+    gauges = {"thickness_at_chord_normal": thickness_cn, "thickness_at_fraction": frac_cam,
+              "thickness_at_fraction_chord_normal": frac_cn, "camber_height": float(abs(yc[k_c])),
+              "camber_height_pos_frac": float(x[k_c] / chord2), "area": area,
+              "centroid": seg.lift(centroid)[0].tolist(), "le_camber": ends_camber[0], "te_camber": ends_camber[1]}
+    return SectionParameters(
+        index=seg.index, points=int(n_points if n_points is not None else len(seg.points2d)),
+        le=le3, te=te3, chord=float(np.linalg.norm(te3 - le3)), chord_in_plane=chord2,
+        stagger_deg=_angle_deg(u), max_thickness=2 * r_max, max_thickness_pos=x_max,
+        max_thickness_pos_frac=x_max / chord2, le_radius=le_r, te_radius=te_r,
+        inlet_angle_deg=inlet, outlet_angle_deg=outlet, camber=seg.lift(c), camber_thickness=2 * r,
+        thickness_at=thickness_at, le_fit_points=le_n, te_fit_points=te_n,
+        le_center=seg.lift(le_c)[0], te_center=seg.lift(te_c)[0],
+        throat=None if seg.throat is None else {**seg.throat, "point": seg.lift(seg.throat["point"])[0]},
+        warnings=tuple(warnings), le_fit=fits[0], te_fit=fits[1], gauges=gauges)
+
+
+_LOOP_SAMPLES = 8000
+
+
+def _max_circle(x: np.ndarray, r: np.ndarray) -> tuple[float, float]:
+    """Largest inscribed radius and its chordwise position (vertex of the parabola through the top three)."""
     k = int(np.argmax(r))
-    if 0 < k < len(r) - 1:      # vertex of the parabola through the top three
+    if 0 < k < len(r) - 1:
         x3, r3 = x[k - 1:k + 2], r[k - 1:k + 2]
         co = np.polyfit(x3 - x3[1], r3, 2)
         if co[0] < 0:
             xv = -co[1] / (2 * co[0])
             if abs(xv) <= abs(x3[2] - x3[0]):
-                r_max, x_max = float(np.polyval(co, xv)), float(x3[1] + xv)
-            else:
-                r_max, x_max = float(r[k]), float(x[k])
-        else:
-            r_max, x_max = float(r[k]), float(x[k])
-    else:
-        r_max, x_max = float(r[k]), float(x[k])
-    edges, warnings = [], []
-    for region, name in ((LE, "leading edge"), (TE, "trailing edge")):
-        try:
-            edges.append(_edge_radius(seg, region, name))
-        except BladeReconError as err:
-            if strict_radius:
-                raise
-            warnings.append(str(err))
-            q = _edge_points(seg, region)
-            centre = q.mean(axis=0) if len(q) else (seg.le if region == LE else seg.te)
-            edges.append((centre, None, len(q)))
-    (le_c, le_r, le_n), (te_c, te_r, te_n) = edges
-    thickness_at = {}
-    for off in offsets:
-        for name, xx in (("le", off), ("te", seg.chord - off)):
-            val = float(2 * np.interp(xx, x, r)) if x[0] <= xx <= x[-1] else None
-            thickness_at[f"{name}+{off:g}"] = val
-    le3, te3 = seg.lift(seg.le)[0], seg.lift(seg.te)[0]
-    inlet = _metal_angle(seg, c, True, le_c)
-    outlet = _metal_angle(seg, c, False, te_c)
-    return SectionParameters(
-        index=seg.index, points=int(n_points if n_points is not None else len(seg.points2d)),
-        le=le3, te=te3, chord=float(np.linalg.norm(te3 - le3)), chord_in_plane=seg.chord,
-        stagger_deg=_angle_deg(u), max_thickness=2 * r_max, max_thickness_pos=x_max,
-        max_thickness_pos_frac=x_max / seg.chord, le_radius=le_r, te_radius=te_r,
-        inlet_angle_deg=inlet, outlet_angle_deg=outlet, camber=seg.lift(c), camber_thickness=2 * r,
-        thickness_at=thickness_at, le_fit_points=le_n, te_fit_points=te_n,
-        le_center=seg.lift(le_c)[0], te_center=seg.lift(te_c)[0],
-        throat=None if seg.throat is None else {**seg.throat, "point": seg.lift(seg.throat["point"])[0]},
-        warnings=tuple(warnings))
+                return float(np.polyval(co, xv)), float(x3[1] + xv)
+    return float(r[k]), float(x[k])
+
+
+def _area_centroid(loop: np.ndarray) -> tuple[float, np.ndarray]:
+    """Area (mm²) and centroid of a closed polygon (shoelace)."""
+    x, y = loop[:, 0], loop[:, 1]
+    x2, y2 = np.roll(x, -1), np.roll(y, -1)
+    cr = x * y2 - x2 * y
+    a = 0.5 * cr.sum()
+    cx = ((x + x2) * cr).sum() / (6 * a)
+    cy = ((y + y2) * cr).sum() / (6 * a)
+    return float(abs(a)), np.array([cx, cy])
 
 
 #: the parameters compared measured vs nominal (mm, degrees)
