@@ -41,7 +41,6 @@ __all__ = ["SectionParameters", "measure_section", "segment_sections", "fit_circ
 
 #: measured points an edge region needs for a radius fit (3 define a circle; 5 give redundancy)
 MIN_EDGE_POINTS = 5
-_HALF_SAMPLES = 5000
 #: chord fractions tried, narrowest first, for the flank windows of the edge G1 condition
 FLANK_WINDOWS = (0.25, 0.4)
 #: arc points lie this many radii ahead of the edge circle's centre along the camber tangent: the
@@ -125,13 +124,19 @@ def _side_samples(seg: Segmentation, side: int, n: int) -> tuple[np.ndarray, np.
     return t, evaluate_curve(seg.curve, t)
 
 
-def inscribed_circles(seg: Segmentation, stations: int = 2000) -> tuple[np.ndarray, np.ndarray]:
+def inscribed_circles(seg: Segmentation, stations: int | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Centres (m, 2) and radii (m,) of the maximal inscribed circles, LE to TE (in-plane mm).
+
+    ``stations`` (default: 2 per measured point, 600 to 2000) on the pressure side; the
+    suction side sampled 2.5 times as densely: a sparse section's curve holds no detail
+    finer than its points, so more stations would only cost time.
 
     Each circle is tangent to the pressure side at a station and touches the suction half
     (bisection on ``dist(p + r n, suction) − r``, vectorised over the stations).
     """
-    _, s_pts = _side_samples(seg, SUCTION, _HALF_SAMPLES)
+    if stations is None:
+        stations = int(np.clip(2 * len(seg.points2d), 600, 2000))
+    _, s_pts = _side_samples(seg, SUCTION, int(2.5 * stations))
     tree = cKDTree(s_pts)
     t, _ = _side_samples(seg, PRESSURE, stations)
     der = curve_derivatives(seg.curve, t, 1)
@@ -152,21 +157,23 @@ def inscribed_circles(seg: Segmentation, stations: int = 2000) -> tuple[np.ndarr
     lo_r = np.zeros(len(p))
     hi_r = np.full(len(p), 0.5 * seg.chord)
     r = 0.5 * d0
+    act = np.arange(len(p))
     for _ in range(40):      # safeguarded Newton: f(r) = dist(p + r n, S) - r, f' = n·(c - s)/|c - s| - 1
-        c = p + r[:, None] * n
+        pa, na, ra = p[act], n[act], r[act]
+        c = pa + ra[:, None] * na
         d, i = tree.query(c)
-        f = d - r
-        lo_r = np.where(f > 0, r, lo_r)
-        hi_r = np.where(f > 0, hi_r, r)
-        g = ((c - s_pts[i]) * n).sum(axis=1) / np.maximum(d, 1e-300) - 1.0
+        f = d - ra
+        lo_r[act] = np.where(f > 0, ra, lo_r[act])
+        hi_r[act] = np.where(f > 0, hi_r[act], ra)
+        g = ((c - s_pts[i]) * na).sum(axis=1) / np.maximum(d, 1e-300) - 1.0
         step = -f / np.where(g < -1e-12, g, -1e-12)
-        r_new = r + step
-        bad = ~((r_new > lo_r) & (r_new < hi_r))
-        r_new[bad] = 0.5 * (lo_r + hi_r)[bad]
-        if np.abs(r_new - r).max() < 1e-7:
-            r = r_new
+        r_new = ra + step
+        bad = ~((r_new > lo_r[act]) & (r_new < hi_r[act]))
+        r_new[bad] = 0.5 * (lo_r[act] + hi_r[act])[bad]
+        r[act] = r_new
+        act = act[np.abs(r_new - ra) >= 1e-7]      # only the stations still moving
+        if not act.size:
             break
-        r = r_new
     c = p + r[:, None] * n
     d, _ = tree.query(c)
     # a station whose circle never touches the other side (a loop of the interpolant at a
@@ -181,13 +188,15 @@ def inscribed_circles(seg: Segmentation, stations: int = 2000) -> tuple[np.ndarr
 
 
 def _inside(pts: np.ndarray, loop: np.ndarray) -> np.ndarray:
-    """Points inside a closed polygon (crossing number, vectorised over points and edges)."""
-    a, b = loop, np.roll(loop, -1, axis=0)
-    x, y = pts[:, :1], pts[:, 1:2]
-    crosses = (a[None, :, 1] > y) != (b[None, :, 1] > y)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        xi = a[None, :, 0] + (y - a[None, :, 1]) * (b[None, :, 0] - a[None, :, 0]) / (b[None, :, 1] - a[None, :, 1])
-    return (crosses & (x < xi)).sum(axis=1) % 2 == 1
+    """Points inside a closed polygon (counter-clockwise or not): behind the outward normal of
+    the nearest polygon edge. Exact for points farther from the loop than the edge length
+    (here the centres of circles that touch it, r ≫ the sampling step)."""
+    area = 0.5 * np.sum(loop[:, 0] * np.roll(loop[:, 1], -1) - np.roll(loop[:, 0], -1) * loop[:, 1])
+    mid = 0.5 * (loop + np.roll(loop, -1, axis=0))
+    e = np.roll(loop, -1, axis=0) - loop
+    out = np.column_stack([e[:, 1], -e[:, 0]]) * np.sign(area)    # right of a ccw edge: outward
+    _, i = cKDTree(mid).query(pts)
+    return ((pts - mid[i]) * out[i]).sum(axis=1) < 0
 
 
 def _edge_points(seg: Segmentation, region: int, trim: float = 0.15) -> np.ndarray:
@@ -231,18 +240,61 @@ def _foot_on_flank(c: np.ndarray, model) -> tuple[float, float]:
     """Distance from c to the curve y = f(x) and the leverage of the fit at the foot point
     (Newton on the foot, from x = c_x): the G1 residual's variance is σ² times the leverage."""
     coef, xm, inv = model
-    d1, d2 = np.polyder(coef), np.polyder(coef, 2)
-    x = c[0] - xm
+    a = [float(v) for v in coef[::-1]]           # a0 + a1 x + ... (plain floats: scalar Horner is fast)
+    cx, cy = float(c[0]) - xm, float(c[1])
+
+    def horner(k: list, x: float) -> float:
+        out = 0.0
+        for v in reversed(k):
+            out = out * x + v
+        return out
+    a1 = [i * v for i, v in enumerate(a)][1:]
+    a2 = [i * v for i, v in enumerate(a1)][1:]
+    x = cx
     for _ in range(8):
-        f, f1, f2 = np.polyval(coef, x), np.polyval(d1, x), np.polyval(d2, x)
-        g = (x - (c[0] - xm)) + (f - c[1]) * f1
-        gp = 1 + f1 * f1 + (f - c[1]) * f2
+        f, f1, f2 = horner(a, x), horner(a1, x), horner(a2, x)
+        g = (x - cx) + (f - cy) * f1
+        gp = 1 + f1 * f1 + (f - cy) * f2
         step = g / gp if abs(gp) > 1e-12 else 0.0
         x -= step
         if abs(step) < 1e-13:
             break
     v = x ** np.arange(len(coef) - 1, -1, -1)
-    return float(np.hypot(x - (c[0] - xm), np.polyval(coef, x) - c[1])), float(v @ inv @ v)
+    foot = np.array([x + xm, horner(a, x)])
+    return float(np.hypot(*(c - foot))), float(v @ inv @ v), foot
+
+
+def _fit_edge_circle(pa: np.ndarray, flanks: list, z: np.ndarray) -> np.ndarray:
+    """Gauss-Newton (step halving) on (cx, cy, r): arc residuals |p − c| − r and the G1 residuals
+    (dist(c, flank) − r) / sqrt(leverage); the gradient of a distance to a curve is the unit
+    vector from its foot point (the foot moves along the curve, to first order no change)."""
+    def system(z):
+        cc, rz = z[:2], z[2]
+        diff = cc - pa
+        dist = np.maximum(np.linalg.norm(diff, axis=1), 1e-300)
+        res = [dist - rz]
+        jac = [np.column_stack([diff / dist[:, None], -np.ones(len(pa))])]
+        for mod in flanks:
+            d, lev, foot = _foot_on_flank(cc, mod)
+            w = 1.0 / np.sqrt(max(lev, 1e-3))
+            res.append(np.array([w * (d - rz)]))
+            jac.append(w * np.append((cc - foot) / max(d, 1e-300), -1.0)[None, :])
+        return np.concatenate(res), np.vstack(jac)
+
+    res, J = system(z)
+    cost = res @ res
+    for _ in range(60):
+        step = np.linalg.lstsq(J, -res, rcond=None)[0]
+        for _h in range(30):
+            z_new = z + step
+            res_new, J_new = system(z_new)
+            if res_new @ res_new <= cost or np.abs(step).max() < 1e-15:
+                break
+            step = 0.5 * step
+        z, res, J, cost = z_new, res_new, J_new, res_new @ res_new
+        if np.abs(step).max() < 1e-13 * max(abs(z[2]), 1.0):
+            break
+    return z
 
 
 def _edge_circle(seg: Segmentation, region: int, cam: np.ndarray, rad: np.ndarray) -> EdgeCircle | None:
@@ -257,8 +309,6 @@ def _edge_circle(seg: Segmentation, region: int, cam: np.ndarray, rad: np.ndarra
     one arc point and two flanks already fix the circle. Repeated until the point split stops
     changing. None when no measured point lies on the edge side of the centre.
     """
-    from scipy.optimize import least_squares
-
     at_le = region == LE
     u = (seg.te - seg.le) / seg.chord
     e = seg.le if at_le else seg.te
@@ -298,24 +348,10 @@ def _edge_circle(seg: Segmentation, region: int, cam: np.ndarray, rad: np.ndarra
         split = (arc.tobytes(), tuple(counts))
         pa = np.column_stack([X[arc], Y[arc]])
 
-        def resid(z):
-            cc, rz = z[:2], z[2]
-            out = [np.linalg.norm(pa - cc, axis=1) - rz]
-            for mod in models:
-                if mod is not None:     # G1: weighted as a point of the flank's noise, extrapolated
-                    dist, lev = _foot_on_flank(cc, mod)
-                    out.append(np.array([(dist - rz) / np.sqrt(max(lev, 1e-3))]))
-            return np.concatenate(out)
-
-        z0 = np.array([c[0], c[1], r])
-        if resid(z0).size < 3:
-            if len(pa) >= 3:
-                c0, r0, _ = fit_circle(pa)
-                z0 = np.array([c0[0], c0[1], r0])
-            else:
-                return None
-        else:
-            z0 = least_squares(resid, z0, method="lm", xtol=1e-15, ftol=1e-15, gtol=1e-15).x
+        flanks = [m for m in models if m is not None]
+        if len(pa) + len(flanks) < 3:
+            return None
+        z0 = _fit_edge_circle(pa, flanks, np.array([c[0], c[1], r]))
         c, r = z0[:2], float(z0[2])
         if split == split_prev:
             break
