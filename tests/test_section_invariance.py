@@ -94,7 +94,7 @@ def test_flow_puts_every_leading_edge_upstream_on_a_te_first_file(tmp_path):
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     truth = _truth_le(blade, 6)
     for flow, rule in (("1,0,0", "flow"), (None, "blunter_edge")):
-        cmd = [sys.executable, "-m", "bladerecon", "sections", str(f), "--json", "--lenient"]
+        cmd = [sys.executable, "-m", "bladerecon", "sections", str(f), "--json", "--lenient", "--fractions", "0.1,0.5"]
         cmd += ["--flow", flow] if flow else []
         r = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=300)
         assert r.returncode == 0, r.stderr
@@ -102,6 +102,7 @@ def test_flow_puts_every_leading_edge_upstream_on_a_te_first_file(tmp_path):
         assert len(rows) == 6
         for row, le in zip(rows, truth):
             assert row["le_rule"] == rule
+            assert set(row["thickness_at_fraction"]) == {"0.1", "0.5"} and "twist_deg" in row["stacking"]
             assert np.linalg.norm(np.array(row["le"]) - le) < 0.02
         guessed = "leading edge guessed" in r.stderr
         assert guessed == (flow is None)

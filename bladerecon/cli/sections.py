@@ -58,6 +58,8 @@ def add_parser(sub) -> None:
                    help="direction the fluid travels: the leading edge is the upstream end of every section "
                         "(without it the LE is guessed: the blunter end on most sections, with a warning)")
     p.add_argument("--offsets", default="", metavar="MM,...", help="thickness at these distances from LE and TE")
+    p.add_argument("--fractions", default="", metavar="F,...",
+                   help="thickness at these chord fractions (0 < F < 1), camber-normal and chord-normal")
     p.add_argument("--beta1", type=finite(-89.9, 89.9, "degrees"),
                    help="inlet flow angle (deg from axial) for the throat point (eq. 5)")
     p.add_argument("--beta2", type=finite(-89.9, 89.9, "degrees"),
@@ -123,12 +125,15 @@ def _nominal_sections(args, segs, span_axis) -> list[np.ndarray]:
 def run_sections(args: argparse.Namespace) -> list:
     """Run the subcommand; the plots are put in place only when every section succeeded."""
     offsets = _floats(args.offsets, "--offsets")
+    fractions = _floats(getattr(args, "fractions", ""), "--fractions")
+    if any(f >= 1 for f in fractions):
+        raise BladeReconError(f"--fractions '{shown(args.fractions)}': give chord fractions between 0 and 1, e.g. 0.1,0.5")
     throat = _throat(args)
     check_input(args.input, "INPUT")
     check_input(args.nominal, "--nominal")
     with Outputs(inputs=(args.input, args.nominal)) as outs:
         plots = outs.folder(args.plots, "--plots", force=args.force)
-        out = _run(args, offsets, throat, plots)
+        out = _run(args, offsets, throat, plots, fractions)
         outs.commit()
     if args.plots:
         _say(args, f"plots in {args.plots}")
@@ -138,8 +143,9 @@ def run_sections(args: argparse.Namespace) -> list:
     return out
 
 
-def _run(args, offsets, throat, plots) -> list:
-    from bladerecon.core.sections.parameters import compare_with_nominal, measure_section, segment_blade
+def _run(args, offsets, throat, plots, fractions=()) -> list:
+    from bladerecon.core.sections.parameters import (canonical_loop, compare_with_nominal, measure_section,
+                                                     segment_blade, stacking)
 
     _say(args, f"reading {args.input}")
     pts, axis, _ = _read_sections(args.input)
@@ -147,8 +153,10 @@ def _run(args, offsets, throat, plots) -> list:
     if blade.warning:
         _say(args, f"warning: {blade.warning}")
     segs = blade.sections
-    params = [measure_section(s, offsets, strict_radius=not args.lenient) for s in segs]
-    out = [{**p.as_dict(), "le_rule": blade.le_rule} for p in params]
+    flow = getattr(args, "flow", None)
+    params = [measure_section(s, offsets, strict_radius=not args.lenient, fractions=fractions) for s in segs]
+    out = [{**p.as_dict(), "le_rule": blade.le_rule, "stacking": st}
+           for p, st in zip(params, stacking(params, axis, flow))]
     if blade.warning:
         for o in out:
             o["warnings"] = [blade.warning, *o["warnings"]]
@@ -160,9 +168,9 @@ def _run(args, offsets, throat, plots) -> list:
         for k, (s, q) in enumerate(zip(segs, nom_pts)):
             from bladerecon.core.sections.segmentation import segment_section
             # the nominal's LE is the end nearest the measured LE
-            ns = segment_section(q, k, axis, le_hint=s.lift(s.le)[0], throat=throat)
+            ns = segment_section(canonical_loop(q, axis), k, axis, le_hint=s.lift(s.le)[0], throat=throat, flow=flow)
             nsegs.append(ns)
-        nparams = [measure_section(s, offsets, strict_radius=not args.lenient) for s in nsegs]
+        nparams = [measure_section(s, offsets, strict_radius=not args.lenient, fractions=fractions) for s in nsegs]
         out = [compare_with_nominal(o, n.as_dict()) for o, n in zip(out, nparams)]
     else:
         nsegs = [None] * len(segs)

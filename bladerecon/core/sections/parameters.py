@@ -37,7 +37,7 @@ from bladerecon.core.sections.segmentation import LE, PRESSURE, SUCTION, TE, Seg
 
 __all__ = ["SectionParameters", "measure_section", "segment_sections", "fit_circle", "inscribed_circles", "MIN_EDGE_POINTS",
            "PARAMETER_KEYS", "compare_with_nominal",
-           "LE_RULES", "BladeSegmentation", "canonical_loop", "segment_blade"]
+           "LE_RULES", "BladeSegmentation", "canonical_loop", "segment_blade", "stacking", "EdgeCircle"]
 
 #: measured points an edge region needs for a radius fit (3 define a circle; 5 give redundancy)
 MIN_EDGE_POINTS = 5
@@ -523,6 +523,31 @@ def _area_centroid(loop: np.ndarray) -> tuple[float, np.ndarray]:
     cx = ((x + x2) * cr).sum() / (6 * a)
     cy = ((y + y2) * cr).sum() / (6 * a)
     return float(abs(a)), np.array([cx, cy])
+
+
+def stacking(params: list[SectionParameters], span_axis: np.ndarray, axial: np.ndarray | None = None) -> list[dict]:
+    """Stacking of every section relative to the first (issue 24 §4), mm and degrees.
+
+    The stacking axis runs along ``span_axis`` through the first section's centroid. ``sweep``:
+    the centroid's offset along the axial direction (``axial``, e.g. the flow direction, made
+    normal to the span; default +x), ``lean``: along span × axial (tangential), ``twist_deg``:
+    stagger minus the first section's stagger, in (−180, 180].
+    """
+    a = np.asarray(span_axis, float) / np.linalg.norm(span_axis)
+    ax = np.array([1.0, 0.0, 0.0]) if axial is None else np.asarray(axial, float)
+    ax = ax - (ax @ a) * a
+    if np.linalg.norm(ax) < 1e-9:
+        ax = np.array([0.0, 1.0, 0.0]) - a[1] * a
+    ax /= np.linalg.norm(ax)
+    tg = np.cross(a, ax)
+    c0 = np.asarray(params[0].gauges["centroid"])
+    out = []
+    for p in params:
+        d = np.asarray(p.gauges["centroid"]) - c0
+        tw = (p.stagger_deg - params[0].stagger_deg + 180.0) % 360.0 - 180.0
+        out.append({"sweep": float(d @ ax), "lean": float(d @ tg), "height": float(d @ a),
+                    "twist_deg": float(180.0 if tw == -180.0 else tw)})
+    return out
 
 
 #: the parameters compared measured vs nominal (mm, degrees)
