@@ -126,3 +126,16 @@ def test_flow_against_the_stream_swaps_every_section_and_a_bad_flow_is_refused(t
         r = subprocess.run([sys.executable, "-m", "bladerecon", "sections", str(f), "--flow", bad], capture_output=True,
                            text=True, env=env, timeout=120)
         assert r.returncode == 2 and "Traceback" not in r.stderr and "--flow" in r.stderr
+
+
+def test_reconstruct_takes_the_flow_direction(tmp_path):
+    """`reconstruct --flow`: the same TE-first file is accepted and the summary names the rule."""
+    secs = _te_first(BLADES["small"], 4, 240)
+    f = tmp_path / "te_first.csv"
+    f.write_text("section,x,y,z\n" + "".join(f"{k},{x!r},{y!r},{z!r}\n" for k, p in enumerate(secs)
+                                              for x, y, z in p))
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    r = subprocess.run([sys.executable, "-m", "bladerecon", "reconstruct", str(f), "--flow", "1,0,0", "--json",
+                        "--quiet"], capture_output=True, text=True, env=env, timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert json.loads(r.stdout)["le_rule"] == "flow"
