@@ -482,7 +482,9 @@ def measure_section(seg: Segmentation, offsets: tuple[float, ...] = (), n_points
     outlet = _metal_angle(seg, c, False, te_c)
     ends_camber = [None if (cc is None or rr_ is None or ax is None) else seg.lift(cc - rr_ * ax)[0].tolist()
                    for cc, rr_, ax in ((le_c, le_r, axes[0]), (te_c, te_r, axes[1]))]
-    gauges = {"thickness_at_chord_normal": thickness_cn, "thickness_at_fraction": frac_cam,
+    from bladerecon.core.sections.segmentation import NONPLANAR_LIMIT
+    projection = "span_normal" if seg.frame.flatness > NONPLANAR_LIMIT else "section_plane"
+    gauges = {"projection": projection, "thickness_at_chord_normal": thickness_cn, "thickness_at_fraction": frac_cam,
               "thickness_at_fraction_chord_normal": frac_cn, "camber_height": float(abs(yc[k_c])),
               "camber_height_pos_frac": float(x[k_c] / chord2), "area": area,
               "centroid": seg.lift(centroid)[0].tolist(), "le_camber": ends_camber[0], "te_camber": ends_camber[1]}
