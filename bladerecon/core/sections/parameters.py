@@ -283,17 +283,20 @@ def _fit_edge_circle(pa: np.ndarray, flanks: list, z: np.ndarray) -> np.ndarray:
 
     res, J = system(z)
     cost = res @ res
-    for _ in range(60):
+    scale = max(abs(z[2]), 1.0)
+    for _ in range(50):
         step = np.linalg.lstsq(J, -res, rcond=None)[0]
-        for _h in range(30):
+        if np.abs(step).max() < 1e-12 * scale:       # converged to round-off
+            break
+        for _h in range(12):
             z_new = z + step
             res_new, J_new = system(z_new)
-            if res_new @ res_new <= cost or np.abs(step).max() < 1e-15:
+            if res_new @ res_new < cost:
                 break
             step = 0.5 * step
+        else:
+            break                                    # no descent left: at the minimum
         z, res, J, cost = z_new, res_new, J_new, res_new @ res_new
-        if np.abs(step).max() < 1e-13 * max(abs(z[2]), 1.0):
-            break
     return z
 
 
