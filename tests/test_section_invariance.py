@@ -139,3 +139,28 @@ def test_reconstruct_takes_the_flow_direction(tmp_path):
                         "--quiet"], capture_output=True, text=True, env=env, timeout=300)
     assert r.returncode == 0, r.stderr
     assert json.loads(r.stdout)["le_rule"] == "flow"
+
+
+@pytest.mark.timeout(300)
+def test_plan_starts_at_the_upstream_edge(tmp_path):
+    """`plan --flow`: each section's LE (its curvature peak, where the plan starts) lies on the
+    analytic LE circle for 1,0,0 and on the TE circle for -1,0,0, on a TE-first nominal."""
+    from bladerecon.samples.blade import section_heights
+    blade = BLADES["small"]
+    secs = _te_first(blade, 4, 3000)
+    f = tmp_path / "nominal_sections.csv"
+    f.write_text("section,x,y,z\n" + "".join(f"{k},{x!r},{y!r},{z!r}\n" for k, p in enumerate(secs)
+                                              for x, y, z in p))
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    for flow, end in (("1,0,0", 0), ("-1,0,0", 1)):
+        r = subprocess.run([sys.executable, "-m", "bladerecon", "plan", str(f), f"--flow={flow}", "--json", "--quiet"],
+                           capture_output=True, text=True, env=env, timeout=300)
+        assert r.returncode == 0, r.stderr
+        summary = json.loads(r.stdout)
+        assert summary["le_rule"] == "flow"
+        for row, h in zip(summary["sections"], section_heights(4)):
+            laws = blade.section_laws(h)
+            le, te = blade.le_te(h)
+            ends = (le, te)
+            radius = (laws.le_radius, laws.te_radius)[end]
+            assert np.linalg.norm(np.array(row["le"]) - ends[end]) < 2.05 * radius
