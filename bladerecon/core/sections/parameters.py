@@ -47,6 +47,8 @@ FLANK_WINDOWS = (0.25, 0.4)
 #: flanks touch the circle ahead of its centre where the blade thickens (sin of the wedge half-angle)
 ARC_AHEAD = 0.25
 FLANK_DEGREE = 3
+#: an edge whose arc points scatter more than 4 × the flanks' rms + this (mm) is reported as not round
+NOT_ROUND = 0.002
 
 
 @dataclass(frozen=True)
@@ -222,6 +224,7 @@ class EdgeCircle:
     flank_points: tuple[int, int]
     rms: float
     axis: np.ndarray           # the camber line's tangent at the edge, pointing into the blade
+    flank_rms: float = float("nan")   # rms of the flank points about their models (mm): the noise level
 
 
 def _flank_model(x: np.ndarray, y: np.ndarray):
@@ -340,7 +343,7 @@ def _edge_circle(seg: Segmentation, region: int, cam: np.ndarray, rad: np.ndarra
             arc = X == X.min()
         lo_x = c[0] + 0.5 * r
         side = Y - np.interp(X, cx, cy)
-        models, counts = [], []
+        models, counts, flank_sq = [], [], []
         for sgn in (1, -1):
             for width in FLANK_WINDOWS:
                 m = (X >= lo_x) & (X <= lo_x + width * L) & (np.sign(side) == sgn)
@@ -348,6 +351,9 @@ def _edge_circle(seg: Segmentation, region: int, cam: np.ndarray, rad: np.ndarra
                     break
             models.append(_flank_model(X[m], Y[m]))
             counts.append(int(m.sum()))
+            if models[-1] is not None and m.sum() > len(models[-1][0]):
+                fres = np.polyval(models[-1][0], X[m] - models[-1][1]) - Y[m]
+                flank_sq.append(float(fres @ fres) / (m.sum() - len(models[-1][0])))
         split = (arc.tobytes(), tuple(counts))
         pa = np.column_stack([X[arc], Y[arc]])
 
@@ -363,7 +369,9 @@ def _edge_circle(seg: Segmentation, region: int, cam: np.ndarray, rad: np.ndarra
         return None
     res = np.linalg.norm(pa - c, axis=1) - r
     centre = e + c[0] * ax + c[1] * ay
-    return EdgeCircle(centre, r, int(len(pa)), (counts[0], counts[1]), float(np.sqrt(np.mean(res ** 2))), ax)
+    flank_rms = float(np.sqrt(np.mean(flank_sq))) if flank_sq else float("nan")
+    return EdgeCircle(centre, r, int(len(pa)), (counts[0], counts[1]), float(np.sqrt(np.mean(res ** 2))), ax,
+                      flank_rms)
 
 
 def _edge_radius(seg: Segmentation, region: int, name: str, cam: np.ndarray, rad: np.ndarray) -> EdgeCircle:
@@ -442,7 +450,12 @@ def measure_section(seg: Segmentation, offsets: tuple[float, ...] = (), n_points
         try:
             ec = _edge_radius(seg, region, name, c, r)
             edges.append((ec.centre, ec.radius, ec.arc_points))
-            fits.append({"arc_points": ec.arc_points, "flank_points": list(ec.flank_points), "rms": ec.rms})
+            fits.append({"arc_points": ec.arc_points, "flank_points": list(ec.flank_points), "rms": ec.rms,
+                         "flank_rms": None if not np.isfinite(ec.flank_rms) else ec.flank_rms})
+            if ec.arc_points >= 5 and np.isfinite(ec.flank_rms) and ec.rms > 4 * ec.flank_rms + NOT_ROUND:
+                warnings.append(f"section {seg.index}: the {name} is not a circle: its arc points scatter "
+                                f"{ec.rms * 1000:.1f} µm rms about the fitted circle against {ec.flank_rms * 1000:.1f} µm "
+                                "on the flanks (an elliptic, square or damaged edge?)")
             axes.append(ec.axis)
             if ec.arc_points < 2:
                 warnings.append(f"section {seg.index}: the {name} radius rests on {ec.arc_points} measured point "
