@@ -4,7 +4,9 @@
 Measured on a :class:`~bladerecon.core.sections.segmentation.Segmentation` (section in its own
 best-fit plane; see there for LE/TE, regions and the frame):
 
-* **LE / TE points**: ends of the section along its chord (tangent ⟂ chord).
+* **LE / TE points**: ends of the section along its chord: the points of the two fitted edge
+  circles farthest apart along the line of their centres (``le_camber``/``te_camber``: the
+  other convention, the camber line extended through the edge circle to the profile).
 * **chord**: |TE − LE| in space (for a non-planar stream-surface section this includes the
   rise of the flow path; ``chord_in_plane`` is the projected one); **stagger**: angle of
   LE→TE from e1 (+x projected on the plane) about the plane normal (≈ +z), degrees in
@@ -15,11 +17,16 @@ best-fit plane; see there for LE/TE, regions and the frame):
   stations at once (maximal inscribed circles = medial axis between the two sides).
 * **max thickness**: the largest inscribed-circle diameter, its position: chordwise
   distance of its centre from the LE (mm) and as a fraction of the chord.
-* **LE / TE radius**: least-squares circle (algebraic fit of Kåsa, then Gauss-Newton on the
-  geometric distance) through the measured points of the edge region, the 15 % of the
-  region next to each joint left out (the joint blends into the flank).
-* **thickness at offsets**: inscribed-circle diameter at given chordwise distances from
-  the LE and from the TE.
+* **LE / TE radius** (issue 24 §3): the circle through the measured points ahead of its
+  centre and tangent (G1) to both flanks, each flank a polynomial fitted to its points near
+  the edge (:func:`_edge_circle`); one arc point and two flanks fix it.
+* **thickness at offsets / chord fractions**: inscribed-circle diameter at given chordwise
+  positions (camber-line-normal convention) and the width across the line ⟂ chord there
+  (chord-normal convention); camber height, area, centroid; stacking across sections
+  (:func:`stacking`).
+* **which end is the LE**: the upstream end along a given flow direction, else one guess
+  for the whole blade (:func:`segment_blade`); every loop is measured from a canonical start
+  and direction (:func:`canonical_loop`), so no figure depends on them.
 * **inlet / outlet metal angle**: direction of the camber-line tangent (LE→TE sense) at
   its ends, from a quadratic fit of the camber points over 15 % of the chord next to each
   edge, evaluated at the edge-circle centre; degrees from e1 like the stagger.
@@ -39,7 +46,7 @@ __all__ = ["SectionParameters", "measure_section", "segment_sections", "fit_circ
            "PARAMETER_KEYS", "compare_with_nominal",
            "LE_RULES", "BladeSegmentation", "canonical_loop", "segment_blade", "stacking", "EdgeCircle"]
 
-#: measured points an edge region needs for a radius fit (3 define a circle; 5 give redundancy)
+#: (kept for older callers) points the old region-only radius fit asked for
 MIN_EDGE_POINTS = 5
 #: chord fractions tried, narrowest first, for the flank windows of the edge G1 condition
 FLANK_WINDOWS = (0.25, 0.4)
