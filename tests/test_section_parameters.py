@@ -108,16 +108,17 @@ def test_circle_fit_is_exact_on_a_circle_arc():
     assert np.allclose(c, [3, -1], atol=1e-10) and abs(r - 0.7) < 1e-10 and rms < 1e-10
 
 
-def test_too_few_edge_points_is_refused_with_section_edge_and_counts():
+def test_two_or_three_points_on_an_edge_circle_still_give_its_radius():
+    """Issue 24 §3: a plan of 30 points (2-3 on each edge circle) gives both radii (never null):
+    the flanks' G1 condition carries the fit. Within 6 % of the analytic radius, saying how
+    many arc and flank points it used."""
     blade = SampleBlade()
-    # a plan with 30 points: only 2-3 on each edge circle
     secs = sample_sections(blade, 2, 30, "plan", noise=0.0, seed=0)
-    seg = segment_sections(secs, np.array([0.0, 0.0, 1.0]), True)[1]
-    with pytest.raises(BladeReconError, match=r"section 1: the (leading|trailing) edge region has \d measured points, "
-                                              r"a radius fit needs at least 5"):
-        measure_section(seg)
-    lenient = measure_section(seg, strict_radius=False)
-    assert lenient.warnings and (lenient.le_radius is None or lenient.te_radius is None)
+    for k, seg in enumerate(segment_sections(secs, np.array([0.0, 0.0, 1.0]), True)):
+        m = measure_section(seg)
+        tr = _truth(blade, k)
+        assert abs(m.le_radius / tr["le_radius"] - 1) < 0.06 and abs(m.te_radius / tr["te_radius"] - 1) < 0.06
+        assert 1 <= m.le_fit["arc_points"] <= 4 and min(m.le_fit["flank_points"]) >= 2 and not m.warnings
 
 
 def _nasa_sections(path):
@@ -179,14 +180,16 @@ def test_cli_sections_with_step_nominal_gives_small_differences():
         assert row["nominal"]["points"] > 900          # the nominal cut is dense
 
 
-def test_cli_too_few_edge_points_exits_2_with_the_message(tmp_path):
+def test_cli_sparse_edges_give_radii_with_their_evidence(tmp_path):
     secs = sample_sections(SampleBlade(), 2, 30, "plan", noise=0.0, seed=0)
     f = tmp_path / "sparse.csv"
     lines = ["section,x,y,z"] + [f"{k},{x},{y},{z}" for k, p in enumerate(secs) for x, y, z in p]
     f.write_text("\n".join(lines) + "\n")
-    r = _cli("sections", f, "--json")
-    assert r.returncode == 2
-    assert "bladerecon: error: section 0: the" in r.stderr and "needs at least 5" in r.stderr
+    r = _cli("sections", f, "--json", "--quiet")
+    assert r.returncode == 0, r.stderr
+    for row in json.loads(r.stdout):
+        assert row["le_radius"] > 0 and row["te_radius"] > 0
+        assert row["le_fit"]["arc_points"] >= 1 and len(row["te_fit"]["flank_points"]) == 2
 
 
 @pytest.mark.parametrize("path", [R37, R67])
@@ -223,3 +226,108 @@ def test_cli_sections_with_a_section_file_nominal_and_throat(tmp_path):
         th = row["throat"]
         assert th["width"] > 0 and abs(th["ratio"] - 1 / (2 * np.cos(np.radians(15)) ** 2 *
                                                           (np.tan(np.radians(45)) - np.tan(np.radians(15))))) < 1e-9
+
+
+# ---------------------------------------------------------------- issue 24: edge radii and gauges
+ISSUE24 = {**BLADES, "small": SampleBlade(chord_hub=40.0, chord_tip=32.0, le_radius_hub=0.55, le_radius_tip=0.3,
+                                          te_radius_hub=0.4, te_radius_tip=0.25, thickness_hub=0.06,
+                                          thickness_tip=0.05)}
+
+
+def _even_sections(blade, n, noise, seed):
+    """n points a section equally spaced in arc length from a random start, noise σ per coordinate."""
+    from bladerecon.samples.blade import section_heights, t_at_length_fraction
+    rng = np.random.default_rng(seed)
+    out = []
+    for h in section_heights(6):
+        p = blade.point(h, t_at_length_fraction(blade, h, (rng.random() + np.arange(n)) / n))
+        out.append(p + noise * rng.standard_normal(p.shape))
+    return out
+
+
+def _radius_errors(blade, n, noise, seed):
+    from bladerecon.core.sections.parameters import segment_blade
+    segs = segment_blade(_even_sections(blade, n, noise, seed), np.array([0.0, 0.0, 1.0]),
+                         flow=np.array([1.0, 0.0, 0.0])).sections
+    errs = []
+    for k, seg in enumerate(segs):
+        m = measure_section(seg)
+        tr = _truth(blade, k / 5)
+        errs += [abs(m.le_radius / tr["le_radius"] - 1), abs(m.te_radius / tr["te_radius"] - 1)]
+    return np.array(errs)
+
+
+@pytest.mark.timeout(180)
+def test_edge_radii_at_400_noisy_points_and_120_exact_points():
+    """Issue 24 §3 against the analytic radii: 400 points with 2 µm noise, 3 draws: ≤ 0.5 % on the
+    default blade, ≤ 1 % on the thin and small-edged ones (measured worst 0.93 %); 120 exact
+    points: ≤ 1 % on all three (measured worst 0.42 %)."""
+    for name, blade in ISSUE24.items():
+        noisy = np.concatenate([_radius_errors(blade, 400, 0.002, seed) for seed in range(3)])
+        assert noisy.max() <= (0.005 if name == "default" else 0.01), (name, noisy.max())
+        exact = _radius_errors(blade, 120, 0.0, 0)
+        assert exact.max() <= 0.01, (name, exact.max())
+
+
+def test_gauges_against_the_analytic_section():
+    """Thickness at chord fractions (camber-normal: the generator's disk at that chordwise position),
+    LE/TE on the camber line, area and centroid (dense true polygon), twist and stacking."""
+    from bladerecon.core.sections.parameters import segment_blade, stacking
+    from bladerecon.samples.blade import section_heights, t_at_length_fraction
+    blade = SampleBlade()
+    secs = sample_sections(blade, 6, 2000, "uniform", noise=0.0, seed=4)
+    segs = segment_blade(secs, np.array([0.0, 0.0, 1.0]), flow=np.array([1.0, 0.0, 0.0])).sections
+    params = [measure_section(s, fractions=(0.2, 0.5, 0.8)) for s in segs]
+    xi = np.linspace(0.0, 1.0, 20001)
+    for h, m in zip(section_heights(6), params):
+        tr = _truth(blade, h)
+        u = (tr["te"] - tr["le"]) / np.linalg.norm(tr["te"] - tr["le"])
+        xc = (blade.camber_point(h, xi) - tr["le"]) @ u
+        for f in (0.2, 0.5, 0.8):
+            t_true = 2 * np.interp(f * tr["chord"], xc, blade.half_thickness(h, xi))
+            assert abs(m.gauges["thickness_at_fraction"][f"{f:g}"] - t_true) < 2e-4
+            assert m.gauges["thickness_at_fraction_chord_normal"][f"{f:g}"] >= t_true - 2e-4
+        for end, x0, r in (("le_camber", 0.0, tr["le_radius"]), ("te_camber", 1.0, tr["te_radius"])):
+            c0, c1 = blade.camber_point(h, x0), blade.camber_point(h, x0 + (1e-6 if x0 == 0 else -1e-6))
+            tan = (c1 - c0) / np.linalg.norm(c1 - c0)          # into the blade
+            assert np.linalg.norm(np.array(m.gauges[end]) - (c0 - r * tan)) < 2e-3
+        dense = blade.point(h, t_at_length_fraction(blade, h, np.arange(40000) / 40000))
+        x, y = dense[:, 0], dense[:, 1]
+        cr = x * np.roll(y, -1) - np.roll(x, -1) * y
+        area = 0.5 * cr.sum()
+        cen = np.array([((x + np.roll(x, -1)) * cr).sum(), ((y + np.roll(y, -1)) * cr).sum()]) / (6 * area)
+        assert abs(m.gauges["area"] / abs(area) - 1) < 1e-5
+        assert np.linalg.norm(np.array(m.gauges["centroid"][:2]) - cen) < 1e-3
+    st = stacking(params, np.array([0.0, 0.0, 1.0]))
+    laws = blade.section_laws(section_heights(6))
+    for s, tw in zip(st, laws.stagger - laws.stagger[0]):
+        assert abs(s["twist_deg"] - tw) < 0.02
+
+
+def _stadium(z, a=1.2, b=0.5, length=30.0):
+    """A closed ccw profile (n, 3) with known edges: elliptic LE (semi-axes a along the chord,
+    b across), straight flanks bent by a slight camber, semicircular TE of radius b."""
+    xs = np.linspace(a, length, 300, endpoint=False)
+    te = np.linspace(-np.pi / 2, np.pi / 2, 80, endpoint=False)
+    le = np.linspace(np.pi / 2, 3 * np.pi / 2, 121)[1:-1]
+    p = np.vstack([np.column_stack([xs, np.full(xs.size, -b)]),
+                   np.column_stack([length + b * np.cos(te), b * np.sin(te)]),
+                   np.column_stack([xs[::-1], np.full(xs.size, b)]),
+                   np.column_stack([a + a * np.cos(le), b * np.sin(le)])])
+    bend = 0.02 * p[:, 0] * (length - p[:, 0]) / length      # a camber that moves both sides alike
+    return np.column_stack([p[:, 0], p[:, 1] + bend, np.full(len(p), z)])
+
+
+def test_an_elliptic_edge_is_reported_not_round_and_a_round_one_is_not():
+    """Issue 24 §3, edge shape: the arc points of an elliptic LE scatter far beyond the flanks'
+    noise, which `warnings` says; the semicircular TE (r 0.5 mm) is measured within 0.5 % and
+    not flagged."""
+    from bladerecon.core.sections.parameters import segment_blade
+    secs = [_stadium(z) for z in (0.0, 10.0)]
+    segs = segment_blade(secs, np.array([0.0, 0.0, 1.0]), flow=np.array([1.0, 0.0, 0.0])).sections
+    for seg in segs:
+        m = measure_section(seg)
+        assert any("leading edge is not a circle" in w for w in m.warnings)
+        assert not any("trailing edge is not a circle" in w for w in m.warnings)
+        assert abs(m.te_radius / 0.5 - 1) < 0.005
+        assert m.le_fit["rms"] > 4 * m.le_fit["flank_rms"]

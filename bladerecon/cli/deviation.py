@@ -47,6 +47,9 @@ def add_parser(sub) -> None:
     d.add_argument("--force", action="store_true",
                    help="write the report into an existing folder that holds files (files of the report's names "
                         "are replaced, others kept); without it such a folder is refused")
+    from bladerecon.cli.sections import flow_direction
+    d.add_argument("--flow", type=flow_direction, metavar="X,Y,Z",
+                   help="direction the fluid travels: the section table's LE is the upstream end of every section")
     d.add_argument("--json", action="store_true", help="print one JSON summary object to stdout")
     d.add_argument("--quiet", action="store_true", help="no progress messages on stderr")
     one_line_errors(d)
@@ -193,8 +196,11 @@ def _section_table(args, res, nominal) -> dict:
         ss = build_sections(read_points(args.measured))
         M = res.alignment.matrix if res.alignment is not None else np.eye(4)
         pts = [apply_transform(s.points, M) for s in ss.sections]
+        flow = getattr(args, "flow", None)
         rows = compare_section_parameters(pts, ss.span_axis, not ss.sections[0].reordered, nominal.shape,
-                                          name=args.nominal)
+                                          name=args.nominal, flow=flow)
+        for row in rows:
+            row["le_rule"] = "flow" if flow is not None else "guessed"
         return {"rows": rows, "names": [s.name for s in ss.sections]}
     except BladeReconError as err:
         _say(args, f"no section-parameter table: {err}")

@@ -44,6 +44,9 @@ def add_parser(sub) -> None:
     p.add_argument("--surface-within", action="store_true",
                    help="plan again at tighter section tolerances until the surface reconstructed from the plan "
                         "is within --tolerance of the (shape) nominal between the sections too (implies --check)")
+    from bladerecon.cli.sections import flow_direction
+    p.add_argument("--flow", type=flow_direction, metavar="X,Y,Z",
+                   help="direction the fluid travels: every section's plan starts at its upstream (leading) edge")
     p.add_argument("--json", action="store_true", help="print the JSON summary on stdout")
     p.add_argument("--quiet", action="store_true", help="no progress messages on stderr")
     one_line_errors(p)
@@ -126,13 +129,13 @@ def _run(args, axis: np.ndarray, heights: np.ndarray, temp: str | None) -> dict:
             _say(args, f"surface from the plan: max {err:.4f} mm from the nominal")
             return err
 
-        surface_plan = plan_for_surface(dense, args.tolerance, surface_error, axis)
+        surface_plan = plan_for_surface(dense, args.tolerance, surface_error, axis, flow=getattr(args, "flow", None))
         plans = surface_plan.plans
         if not surface_plan.within:
             _say(args, f"the surface stays {surface_plan.surface_error:.4f} mm from the nominal after "
                        f"{surface_plan.rounds} rounds (section tolerance {surface_plan.section_tolerance:.4f} mm)")
     else:
-        plans = plan_sections(dense, args.tolerance, axis)
+        plans = plan_sections(dense, args.tolerance, axis, getattr(args, "flow", None))
     kept = sum(len(p.indices) for p in plans)
     total = sum(p.dense_points for p in plans)
     summary = {
@@ -141,7 +144,9 @@ def _run(args, axis: np.ndarray, heights: np.ndarray, temp: str | None) -> dict:
         "hausdorff_max": max(p.hausdorff for p in plans),
         "sections": [{"index": p.index, "height": float(z), "dense_points": p.dense_points,
                       "points_kept": int(len(p.indices)), "compression_rate": p.compression,
-                      "hausdorff": p.hausdorff, "iterations": p.iterations} for p, z in zip(plans, h)],
+                      "hausdorff": p.hausdorff, "iterations": p.iterations,
+                      "le": dense[k][p.extrema[0]].tolist()} for k, (p, z) in enumerate(zip(plans, h))],
+        "le_rule": "flow" if getattr(args, "flow", None) is not None else "blunter_edge",
     }
     if surface_plan is not None:
         summary["surface_within"] = {"within": surface_plan.within, "section_tolerance": surface_plan.section_tolerance,

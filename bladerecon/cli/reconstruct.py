@@ -50,6 +50,9 @@ def add_parser(sub) -> None:
     r.add_argument("--continuity", type=int, choices=(2, 3), default=2,
                    help="with --segmented: C2 (default) or C3 at the LE/TE joints")
     r.add_argument("--solid", action="store_true", help="close hub and tip with planar caps; write a solid")
+    from bladerecon.cli.sections import flow_direction
+    r.add_argument("--flow", type=flow_direction, metavar="X,Y,Z",
+                   help="direction the fluid travels: the leading edge is the upstream end of every section")
     r.add_argument("--quiet", action="store_true", help="no progress messages on stderr")
     from bladerecon.cli.realdata import add_options as add_realdata_options
 
@@ -129,6 +132,10 @@ def _reconstruct(args: argparse.Namespace, say, step: str | None, report: str | 
         say(f"fairing: {len(fairing['replaced'])} points replaced")
     say("fitting section curves and surface")
     measured_start = not sections.sections[0].reordered
+    flow = getattr(args, "flow", None)
+    if flow is not None:    # each loop starts at its most upstream point: that end is the LE (issue 24)
+        pts = [np.roll(p, -int(np.argmin(p @ flow)), axis=0) for p in pts]
+        measured_start = True
     seg_info = None
     if getattr(args, "segmented", False):
         if args.pairing == "angle" or args.method != "auto" or args.poles is not None:
@@ -186,6 +193,7 @@ def _reconstruct(args: argparse.Namespace, say, step: str | None, report: str | 
     if getattr(rec, "surface_fairing", None) is not None:
         summary["surface_fairing"] = rec.surface_fairing
     summary["fairness"] = realdata.fairness_summary(surf, pts, sections.span_axis)
+    summary["le_rule"] = "flow" if flow is not None else ("first_point" if measured_start else "blunter_edge")
 
     t_exp0 = time.perf_counter()
     shape = None

@@ -20,7 +20,7 @@ from bladerecon.core.errors import BladeReconError
 from bladerecon.core.io.outputs import (Outputs, check_coordinates, check_input, check_samples, finite,
                                         one_line_errors, positive, shown)
 
-__all__ = ["add_parser", "run_sections"]
+__all__ = ["add_parser", "run_sections", "flow_direction"]
 
 SHAPE_SUFFIXES = (".step", ".stp", ".iges", ".igs", ".brep", ".brp", ".fcstd")
 
@@ -35,6 +35,18 @@ def _floats(text: str, what: str) -> tuple[float, ...]:
     return values
 
 
+def flow_direction(text: str) -> np.ndarray:
+    """argparse ``type`` of ``--flow X,Y,Z``: the direction the fluid travels (unit vector)."""
+    try:
+        v = np.array([float(x) for x in text.split(",")], float)
+    except ValueError:
+        v = np.zeros(0)
+    if v.shape != (3,) or not np.all(np.isfinite(v)) or np.linalg.norm(v) < 1e-12:
+        raise argparse.ArgumentTypeError(f"'{shown(text)}': give the flow direction as three numbers X,Y,Z "
+                                         "(not all zero), e.g. 1,0,0")
+    return v / np.linalg.norm(v)
+
+
 def add_parser(sub) -> None:
     p = sub.add_parser("sections", help="section parameters (chord, stagger, thickness, LE/TE radius, angles)",
                        description="Segment every section (LE, TE, suction, pressure) and measure its "
@@ -42,7 +54,12 @@ def add_parser(sub) -> None:
     p.add_argument("input", help="point file with sections (any format 'reconstruct' reads)")
     p.add_argument("--nominal", help="nominal: STEP/IGES/BREP/FCStd (cut in each section's plane) or a section file")
     p.add_argument("--plots", metavar="DIR", help="write section_NN.png per section (segmentation coloured)")
+    p.add_argument("--flow", type=flow_direction, metavar="X,Y,Z",
+                   help="direction the fluid travels: the leading edge is the upstream end of every section "
+                        "(without it the LE is guessed: the blunter end on most sections, with a warning)")
     p.add_argument("--offsets", default="", metavar="MM,...", help="thickness at these distances from LE and TE")
+    p.add_argument("--fractions", default="", metavar="F,...",
+                   help="thickness at these chord fractions (0 < F < 1), camber-normal and chord-normal")
     p.add_argument("--beta1", type=finite(-89.9, 89.9, "degrees"),
                    help="inlet flow angle (deg from axial) for the throat point (eq. 5)")
     p.add_argument("--beta2", type=finite(-89.9, 89.9, "degrees"),
@@ -111,13 +128,16 @@ def _nominal_sections(args, segs, span_axis) -> list[np.ndarray]:
 def run_sections(args: argparse.Namespace) -> list:
     """Run the subcommand; the plots are put in place only when every section succeeded."""
     offsets = _floats(args.offsets, "--offsets")
+    fractions = _floats(getattr(args, "fractions", ""), "--fractions")
+    if any(f >= 1 for f in fractions):
+        raise BladeReconError(f"--fractions '{shown(args.fractions)}': give chord fractions between 0 and 1, e.g. 0.1,0.5")
     throat = _throat(args)
     check_input(args.input, "INPUT")
     check_input(args.nominal, "--nominal")
     plan = _inspection_plan(args)
     with Outputs(inputs=(args.input, args.nominal)) as outs:
         plots = outs.folder(args.plots, "--plots", force=args.force)
-        out = _run(args, offsets, throat, plots)
+        out = _run(args, offsets, throat, plots, fractions)
         outs.commit()
     if plan is not None:
         _judge(args, plan, out)
@@ -129,14 +149,23 @@ def run_sections(args: argparse.Namespace) -> list:
     return out
 
 
-def _run(args, offsets, throat, plots) -> list:
-    from bladerecon.core.sections.parameters import compare_with_nominal, measure_section, segment_sections
+def _run(args, offsets, throat, plots, fractions=()) -> list:
+    from bladerecon.core.sections.parameters import (canonical_loop, compare_with_nominal, measure_section,
+                                                     segment_blade, stacking)
 
     _say(args, f"reading {args.input}")
-    pts, axis, measured_start = _read_sections(args.input)
-    segs = segment_sections(pts, axis, measured_start, throat=throat, max_gap=args.max_gap)
-    params = [measure_section(s, offsets, strict_radius=not args.lenient) for s in segs]
-    out = [p.as_dict() for p in params]
+    pts, axis, _ = _read_sections(args.input)
+    blade = segment_blade(pts, axis, throat=throat, max_gap=args.max_gap, flow=getattr(args, "flow", None))
+    if blade.warning:
+        _say(args, f"warning: {blade.warning}")
+    segs = blade.sections
+    flow = getattr(args, "flow", None)
+    params = [measure_section(s, offsets, strict_radius=not args.lenient, fractions=fractions) for s in segs]
+    out = [{**p.as_dict(), "le_rule": blade.le_rule, "stacking": st}
+           for p, st in zip(params, stacking(params, axis, flow))]
+    if blade.warning:
+        for o in out:
+            o["warnings"] = [blade.warning, *o["warnings"]]
     if args.nominal:
         _say(args, f"nominal {args.nominal}")
         nom_pts = _nominal_sections(args, segs, axis)
@@ -145,9 +174,9 @@ def _run(args, offsets, throat, plots) -> list:
         for k, (s, q) in enumerate(zip(segs, nom_pts)):
             from bladerecon.core.sections.segmentation import segment_section
             # the nominal's LE is the end nearest the measured LE
-            ns = segment_section(q, k, axis, le_hint=s.lift(s.le)[0], throat=throat)
+            ns = segment_section(canonical_loop(q, axis), k, axis, le_hint=s.lift(s.le)[0], throat=throat, flow=flow)
             nsegs.append(ns)
-        nparams = [measure_section(s, offsets, strict_radius=not args.lenient) for s in nsegs]
+        nparams = [measure_section(s, offsets, strict_radius=not args.lenient, fractions=fractions) for s in nsegs]
         out = [compare_with_nominal(o, n.as_dict()) for o, n in zip(out, nparams)]
     else:
         nsegs = [None] * len(segs)

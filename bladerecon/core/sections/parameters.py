@@ -4,7 +4,9 @@
 Measured on a :class:`~bladerecon.core.sections.segmentation.Segmentation` (section in its own
 best-fit plane; see there for LE/TE, regions and the frame):
 
-* **LE / TE points**: ends of the section along its chord (tangent ⟂ chord).
+* **LE / TE points**: ends of the section along its chord: the points of the two fitted edge
+  circles farthest apart along the line of their centres (``le_camber``/``te_camber``: the
+  other convention, the camber line extended through the edge circle to the profile).
 * **chord**: |TE − LE| in space (for a non-planar stream-surface section this includes the
   rise of the flow path; ``chord_in_plane`` is the projected one); **stagger**: angle of
   LE→TE from e1 (+x projected on the plane) about the plane normal (≈ +z), degrees in
@@ -15,11 +17,16 @@ best-fit plane; see there for LE/TE, regions and the frame):
   stations at once (maximal inscribed circles = medial axis between the two sides).
 * **max thickness**: the largest inscribed-circle diameter, its position: chordwise
   distance of its centre from the LE (mm) and as a fraction of the chord.
-* **LE / TE radius**: least-squares circle (algebraic fit of Kåsa, then Gauss-Newton on the
-  geometric distance) through the measured points of the edge region, the 15 % of the
-  region next to each joint left out (the joint blends into the flank).
-* **thickness at offsets**: inscribed-circle diameter at given chordwise distances from
-  the LE and from the TE.
+* **LE / TE radius** (issue 24 §3): the circle through the measured points ahead of its
+  centre and tangent (G1) to both flanks, each flank a polynomial fitted to its points near
+  the edge (:func:`_edge_circle`); one arc point and two flanks fix it.
+* **thickness at offsets / chord fractions**: inscribed-circle diameter at given chordwise
+  positions (camber-line-normal convention) and the width across the line ⟂ chord there
+  (chord-normal convention); camber height, area, centroid; stacking across sections
+  (:func:`stacking`).
+* **which end is the LE**: the upstream end along a given flow direction, else one guess
+  for the whole blade (:func:`segment_blade`); every loop is measured from a canonical start
+  and direction (:func:`canonical_loop`), so no figure depends on them.
 * **inlet / outlet metal angle**: direction of the camber-line tangent (LE→TE sense) at
   its ends, from a quadratic fit of the camber points over 15 % of the chord next to each
   edge, evaluated at the edge-circle centre; degrees from e1 like the stagger.
@@ -36,11 +43,19 @@ from bladerecon.core.errors import BladeReconError
 from bladerecon.core.sections.segmentation import LE, PRESSURE, SUCTION, TE, Segmentation
 
 __all__ = ["SectionParameters", "measure_section", "segment_sections", "fit_circle", "inscribed_circles", "MIN_EDGE_POINTS",
-           "PARAMETER_KEYS", "compare_with_nominal"]
+           "PARAMETER_KEYS", "compare_with_nominal",
+           "LE_RULES", "BladeSegmentation", "canonical_loop", "segment_blade", "stacking", "EdgeCircle"]
 
-#: measured points an edge region needs for a radius fit (3 define a circle; 5 give redundancy)
+#: (kept for older callers) points the old region-only radius fit asked for
 MIN_EDGE_POINTS = 5
-_HALF_SAMPLES = 5000
+#: chord fractions tried, narrowest first, for the flank windows of the edge G1 condition
+FLANK_WINDOWS = (0.25, 0.4)
+#: arc points lie this many radii ahead of the edge circle's centre along the camber tangent: the
+#: flanks touch the circle ahead of its centre where the blade thickens (sin of the wedge half-angle)
+ARC_AHEAD = 0.25
+FLANK_DEGREE = 3
+#: an edge whose arc points scatter more than 4 × the flanks' rms + this (mm) is reported as not round
+NOT_ROUND = 0.002
 
 
 @dataclass(frozen=True)
@@ -70,6 +85,9 @@ class SectionParameters:
     throat: dict | None = None
     warnings: tuple = ()
     chord_in_plane: float = 0.0       # chord in the section plane (= chord for planar sections)
+    le_fit: dict | None = None        # edge-circle fit: arc_points, flank_points (2), rms (mm)
+    te_fit: dict | None = None
+    gauges: dict = field(default_factory=dict)   # named gauge measurements (see measure_section)
 
     def as_dict(self) -> dict:
         d = {"index": self.index, "points": self.points, "le": self.le.tolist(), "te": self.te.tolist(),
@@ -78,7 +96,8 @@ class SectionParameters:
              "le_radius": self.le_radius, "te_radius": self.te_radius,
              "inlet_angle_deg": self.inlet_angle_deg, "outlet_angle_deg": self.outlet_angle_deg,
              "chord_in_plane": self.chord_in_plane, "thickness_at": self.thickness_at, "le_fit_points": self.le_fit_points,
-             "te_fit_points": self.te_fit_points, "warnings": list(self.warnings)}
+             "te_fit_points": self.te_fit_points, "le_fit": self.le_fit, "te_fit": self.te_fit,
+             **self.gauges, "warnings": list(self.warnings)}
         if self.throat is not None:
             d["throat"] = {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in self.throat.items()}
         return d
@@ -114,13 +133,19 @@ def _side_samples(seg: Segmentation, side: int, n: int) -> tuple[np.ndarray, np.
     return t, evaluate_curve(seg.curve, t)
 
 
-def inscribed_circles(seg: Segmentation, stations: int = 2000) -> tuple[np.ndarray, np.ndarray]:
+def inscribed_circles(seg: Segmentation, stations: int | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Centres (m, 2) and radii (m,) of the maximal inscribed circles, LE to TE (in-plane mm).
+
+    ``stations`` (default: 2 per measured point, 600 to 2000) on the pressure side; the
+    suction side sampled 2.5 times as densely: a sparse section's curve holds no detail
+    finer than its points, so more stations would only cost time.
 
     Each circle is tangent to the pressure side at a station and touches the suction half
     (bisection on ``dist(p + r n, suction) − r``, vectorised over the stations).
     """
-    _, s_pts = _side_samples(seg, SUCTION, _HALF_SAMPLES)
+    if stations is None:
+        stations = int(np.clip(2 * len(seg.points2d), 600, 2000))
+    _, s_pts = _side_samples(seg, SUCTION, int(2.5 * stations))
     tree = cKDTree(s_pts)
     t, _ = _side_samples(seg, PRESSURE, stations)
     der = curve_derivatives(seg.curve, t, 1)
@@ -141,21 +166,23 @@ def inscribed_circles(seg: Segmentation, stations: int = 2000) -> tuple[np.ndarr
     lo_r = np.zeros(len(p))
     hi_r = np.full(len(p), 0.5 * seg.chord)
     r = 0.5 * d0
+    act = np.arange(len(p))
     for _ in range(40):      # safeguarded Newton: f(r) = dist(p + r n, S) - r, f' = n·(c - s)/|c - s| - 1
-        c = p + r[:, None] * n
+        pa, na, ra = p[act], n[act], r[act]
+        c = pa + ra[:, None] * na
         d, i = tree.query(c)
-        f = d - r
-        lo_r = np.where(f > 0, r, lo_r)
-        hi_r = np.where(f > 0, hi_r, r)
-        g = ((c - s_pts[i]) * n).sum(axis=1) / np.maximum(d, 1e-300) - 1.0
+        f = d - ra
+        lo_r[act] = np.where(f > 0, ra, lo_r[act])
+        hi_r[act] = np.where(f > 0, hi_r[act], ra)
+        g = ((c - s_pts[i]) * na).sum(axis=1) / np.maximum(d, 1e-300) - 1.0
         step = -f / np.where(g < -1e-12, g, -1e-12)
-        r_new = r + step
-        bad = ~((r_new > lo_r) & (r_new < hi_r))
-        r_new[bad] = 0.5 * (lo_r + hi_r)[bad]
-        if np.abs(r_new - r).max() < 1e-7:
-            r = r_new
+        r_new = ra + step
+        bad = ~((r_new > lo_r[act]) & (r_new < hi_r[act]))
+        r_new[bad] = 0.5 * (lo_r[act] + hi_r[act])[bad]
+        r[act] = r_new
+        act = act[np.abs(r_new - ra) >= 1e-7]      # only the stations still moving
+        if not act.size:
             break
-        r = r_new
     c = p + r[:, None] * n
     d, _ = tree.query(c)
     # a station whose circle never touches the other side (a loop of the interpolant at a
@@ -170,18 +197,20 @@ def inscribed_circles(seg: Segmentation, stations: int = 2000) -> tuple[np.ndarr
 
 
 def _inside(pts: np.ndarray, loop: np.ndarray) -> np.ndarray:
-    """Points inside a closed polygon (crossing number, vectorised over points and edges)."""
-    a, b = loop, np.roll(loop, -1, axis=0)
-    x, y = pts[:, :1], pts[:, 1:2]
-    crosses = (a[None, :, 1] > y) != (b[None, :, 1] > y)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        xi = a[None, :, 0] + (y - a[None, :, 1]) * (b[None, :, 0] - a[None, :, 0]) / (b[None, :, 1] - a[None, :, 1])
-    return (crosses & (x < xi)).sum(axis=1) % 2 == 1
+    """Points inside a closed polygon (counter-clockwise or not): behind the outward normal of
+    the nearest polygon edge. Exact for points farther from the loop than the edge length
+    (here the centres of circles that touch it, r ≫ the sampling step)."""
+    area = 0.5 * np.sum(loop[:, 0] * np.roll(loop[:, 1], -1) - np.roll(loop[:, 0], -1) * loop[:, 1])
+    mid = 0.5 * (loop + np.roll(loop, -1, axis=0))
+    e = np.roll(loop, -1, axis=0) - loop
+    out = np.column_stack([e[:, 1], -e[:, 0]]) * np.sign(area)    # right of a ccw edge: outward
+    _, i = cKDTree(mid).query(pts)
+    return ((pts - mid[i]) * out[i]).sum(axis=1) < 0
 
 
 def _edge_points(seg: Segmentation, region: int, trim: float = 0.15) -> np.ndarray:
-    """Measured points of an edge region, without the ``trim`` fraction next to each joint
-    when enough remain (2x :data:`MIN_EDGE_POINTS`); sparse plans keep every edge point."""
+    """Measured points of an edge region by the curvature joints (the old, region-only evidence),
+    without the ``trim`` fraction next to each joint when enough remain."""
     a, b = seg.region_interval(region)
     w = b - a
     rel = np.mod(seg.t_points - a, seg.period)
@@ -191,17 +220,174 @@ def _edge_points(seg: Segmentation, region: int, trim: float = 0.15) -> np.ndarr
     return seg.points2d[m]
 
 
-def _edge_radius(seg: Segmentation, region: int, name: str) -> tuple[np.ndarray, float, int]:
-    q = _edge_points(seg, region)
-    if len(q) < MIN_EDGE_POINTS:
+@dataclass(frozen=True)
+class EdgeCircle:
+    """An edge circle fitted with all the evidence (in-plane mm): centre, radius, the measured
+    points on the arc, the flank points that set the G1 condition, the rms of the arc residuals."""
+
+    centre: np.ndarray
+    radius: float
+    arc_points: int
+    flank_points: tuple[int, int]
+    rms: float
+    axis: np.ndarray           # the camber line's tangent at the edge, pointing into the blade
+    flank_rms: float = float("nan")   # rms of the flank points about their models (mm): the noise level
+
+
+def _flank_model(x: np.ndarray, y: np.ndarray):
+    """Polynomial y(x) of one flank next to the edge (edge-local frame; degree 2, 1 when sparse)
+    with what its uncertainty needs: (coefficients, x shift, (VᵀV)⁻¹ of the fit)."""
+    if len(x) < 2:
+        return None
+    deg = FLANK_DEGREE if len(x) >= 12 else (2 if len(x) >= 4 else 1)
+    xm = x.mean()
+    V = np.vander(x - xm, deg + 1)
+    coef = np.linalg.lstsq(V, y, rcond=None)[0]
+    return coef, xm, np.linalg.pinv(V.T @ V)
+
+
+def _foot_on_flank(c: np.ndarray, model) -> tuple[float, float]:
+    """Distance from c to the curve y = f(x) and the leverage of the fit at the foot point
+    (Newton on the foot, from x = c_x): the G1 residual's variance is σ² times the leverage."""
+    coef, xm, inv = model
+    a = [float(v) for v in coef[::-1]]           # a0 + a1 x + ... (plain floats: scalar Horner is fast)
+    cx, cy = float(c[0]) - xm, float(c[1])
+
+    def horner(k: list, x: float) -> float:
+        out = 0.0
+        for v in reversed(k):
+            out = out * x + v
+        return out
+    a1 = [i * v for i, v in enumerate(a)][1:]
+    a2 = [i * v for i, v in enumerate(a1)][1:]
+    x = cx
+    for _ in range(8):
+        f, f1, f2 = horner(a, x), horner(a1, x), horner(a2, x)
+        g = (x - cx) + (f - cy) * f1
+        gp = 1 + f1 * f1 + (f - cy) * f2
+        step = g / gp if abs(gp) > 1e-12 else 0.0
+        x -= step
+        if abs(step) < 1e-13:
+            break
+    v = x ** np.arange(len(coef) - 1, -1, -1)
+    foot = np.array([x + xm, horner(a, x)])
+    return float(np.hypot(*(c - foot))), float(v @ inv @ v), foot
+
+
+def _fit_edge_circle(pa: np.ndarray, flanks: list, z: np.ndarray) -> np.ndarray:
+    """Gauss-Newton (step halving) on (cx, cy, r): arc residuals |p − c| − r and the G1 residuals
+    (dist(c, flank) − r) / sqrt(leverage); the gradient of a distance to a curve is the unit
+    vector from its foot point (the foot moves along the curve, to first order no change)."""
+    def system(z):
+        cc, rz = z[:2], z[2]
+        diff = cc - pa
+        dist = np.maximum(np.linalg.norm(diff, axis=1), 1e-300)
+        res = [dist - rz]
+        jac = [np.column_stack([diff / dist[:, None], -np.ones(len(pa))])]
+        for mod in flanks:
+            d, lev, foot = _foot_on_flank(cc, mod)
+            w = 1.0 / np.sqrt(max(lev, 1e-3))
+            res.append(np.array([w * (d - rz)]))
+            jac.append(w * np.append((cc - foot) / max(d, 1e-300), -1.0)[None, :])
+        return np.concatenate(res), np.vstack(jac)
+
+    res, J = system(z)
+    cost = res @ res
+    scale = max(abs(z[2]), 1.0)
+    for _ in range(50):
+        step = np.linalg.lstsq(J, -res, rcond=None)[0]
+        if np.abs(step).max() < 1e-12 * scale:       # converged to round-off
+            break
+        for _h in range(12):
+            z_new = z + step
+            res_new, J_new = system(z_new)
+            if res_new @ res_new < cost:
+                break
+            step = 0.5 * step
+        else:
+            break                                    # no descent left: at the minimum
+        z, res, J, cost = z_new, res_new, J_new, res_new @ res_new
+    return z
+
+
+def _edge_circle(seg: Segmentation, region: int, cam: np.ndarray, rad: np.ndarray) -> EdgeCircle | None:
+    """The edge circle from all the evidence (issue 24 §3).
+
+    Works in an edge-local frame: origin the edge point, x into the blade along the chord, y
+    across. The arc points are the measured points beyond the circle's centre (towards the
+    edge); the flank points are those 0.5 r to 8 % of the chord behind it, each side fitted by
+    a quadratic y(x) and split by the camber line (the inscribed-circle centres ``cam``).
+    Unknowns (centre, radius) by least squares on the arc residuals ``|p − c| − r`` plus the G1
+    condition to both flanks, ``dist(c, flank) − r``, weighted as ``sqrt(n_flank)/2`` points:
+    one arc point and two flanks already fix the circle. Repeated until the point split stops
+    changing. None when no measured point lies on the edge side of the centre.
+    """
+    at_le = region == LE
+    u = (seg.te - seg.le) / seg.chord
+    e = seg.le if at_le else seg.te
+    L = seg.chord
+    # x along the camber line's tangent at the edge (into the blade): the arc is symmetric about it
+    d0 = u if at_le else -u
+    xc, yc = (cam - e) @ d0, (cam - e) @ np.array([-d0[1], d0[0]])
+    near = xc <= 0.15 * L
+    if near.sum() < 4:
+        near = np.argsort(xc)[:8]
+    slope = np.polyval(np.polyder(np.polyfit(xc[near], yc[near], 2)), float(rad[np.argmin(xc)]))
+    ax = (d0 + slope * np.array([-d0[1], d0[0]])) / np.hypot(1.0, slope)
+    ay = np.array([-ax[1], ax[0]])
+    q = seg.points2d - e
+    X, Y = q @ ax, q @ ay
+    cq = cam - e
+    cx, cy = cq @ ax, cq @ ay
+    order = np.argsort(cx)
+    cx, cy, rr = cx[order], cy[order], rad[order]
+    r = float(rr[0])
+    c = np.array([r, float(np.interp(r, cx, cy))])
+    split_prev = None
+    for _ in range(8):
+        arc = (X - c[0]) <= -ARC_AHEAD * r
+        if not arc.any():
+            arc = X == X.min()
+        lo_x = c[0] + 0.5 * r
+        side = Y - np.interp(X, cx, cy)
+        models, counts, flank_sq = [], [], []
+        for sgn in (1, -1):
+            for width in FLANK_WINDOWS:
+                m = (X >= lo_x) & (X <= lo_x + width * L) & (np.sign(side) == sgn)
+                if m.sum() >= 5:
+                    break
+            models.append(_flank_model(X[m], Y[m]))
+            counts.append(int(m.sum()))
+            if models[-1] is not None and m.sum() > len(models[-1][0]):
+                fres = np.polyval(models[-1][0], X[m] - models[-1][1]) - Y[m]
+                flank_sq.append(float(fres @ fres) / (m.sum() - len(models[-1][0])))
+        split = (arc.tobytes(), tuple(counts))
+        pa = np.column_stack([X[arc], Y[arc]])
+
+        flanks = [m for m in models if m is not None]
+        if len(pa) + len(flanks) < 3:
+            return None
+        z0 = _fit_edge_circle(pa, flanks, np.array([c[0], c[1], r]))
+        c, r = z0[:2], float(z0[2])
+        if split == split_prev:
+            break
+        split_prev = split
+    if not (np.isfinite(r) and 0 < r < 0.5 * L):
+        return None
+    res = np.linalg.norm(pa - c, axis=1) - r
+    centre = e + c[0] * ax + c[1] * ay
+    flank_rms = float(np.sqrt(np.mean(flank_sq))) if flank_sq else float("nan")
+    return EdgeCircle(centre, r, int(len(pa)), (counts[0], counts[1]), float(np.sqrt(np.mean(res ** 2))), ax,
+                      flank_rms)
+
+
+def _edge_radius(seg: Segmentation, region: int, name: str, cam: np.ndarray, rad: np.ndarray) -> EdgeCircle:
+    ec = _edge_circle(seg, region, cam, rad)
+    if ec is None:
         raise BladeReconError(
-            f"section {seg.index}: the {name} region has {len(q)} measured points, a radius fit needs at least "
-            f"{MIN_EDGE_POINTS}: measure more points on the {name}")
-    c, r, _ = fit_circle(q)
-    if not np.isfinite(r) or r > 0.5 * seg.chord:
-        raise BladeReconError(f"section {seg.index}: the {name} points do not fit a circle (radius {r:.3g} mm): "
-                              "check the edge measurement")
-    return c, r, len(q)
+            f"section {seg.index}: no measured point on the {name} beyond its circle's centre: "
+            f"measure points round the {name}")
+    return ec
 
 
 def _angle_deg(v: np.ndarray) -> float:
@@ -225,61 +411,168 @@ def _metal_angle(seg: Segmentation, c: np.ndarray, at_le: bool, centre: np.ndarr
     return _angle_deg(d)
 
 
+def _ends_from_circles(seg: Segmentation, le_c, le_r, te_c, te_r) -> tuple[np.ndarray, np.ndarray]:
+    """LE and TE points: the ends of the section along its chord. With both edge circles fitted,
+    the points of the circles farthest apart along the line of their centres (the sample
+    generator's and the packages' chord definition, and free of the interpolant's overshoot
+    where an edge is sparsely measured); otherwise the segmentation's ends."""
+    if le_r is None or te_r is None:
+        return seg.le, seg.te
+    d = te_c - le_c
+    u = d / np.linalg.norm(d)
+    return le_c - le_r * u, te_c + te_r * u
+
+
+def _chord_normal_thickness(loop: np.ndarray, le: np.ndarray, u: np.ndarray, xs) -> list:
+    """Thickness perpendicular to the chord at chordwise distances xs from the LE (mm): the
+    distance between the outermost crossings of the profile with that line; None off the profile."""
+    v = np.array([-u[1], u[0]])
+    X, Y = (loop - le) @ u, (loop - le) @ v
+    X2, Y2 = np.roll(X, -1), np.roll(Y, -1)
+    out = []
+    for x in xs:
+        m = (X - x) * (X2 - x) <= 0
+        m &= X != X2
+        if m.sum() < 2:
+            out.append(None)
+            continue
+        y = Y[m] + (x - X[m]) * (Y2[m] - Y[m]) / (X2[m] - X[m])
+        out.append(float(y.max() - y.min()))
+    return out
+
+
 def measure_section(seg: Segmentation, offsets: tuple[float, ...] = (), n_points: int | None = None,
-                    strict_radius: bool = True) -> SectionParameters:
+                    strict_radius: bool = True, fractions: tuple[float, ...] = ()) -> SectionParameters:
     """All parameters of one segmented section (see the module docstring). mm, degrees.
 
-    An edge region with fewer than :data:`MIN_EDGE_POINTS` measured points raises
-    :class:`BladeReconError` (section, edge, points had/needed); with ``strict_radius=False``
-    that radius is None instead and the message goes to ``warnings``.
+    An edge with no measured point beyond its circle's centre raises :class:`BladeReconError`
+    (section, edge); with ``strict_radius=False`` that radius is None instead and the message
+    goes to ``warnings``. ``offsets``: distances (mm) from LE and TE, ``fractions``: chord
+    fractions, where the thickness is measured in both conventions (camber-line normal:
+    the inscribed circle's diameter; chord normal: across the line ⟂ chord).
     """
-    u = (seg.te - seg.le) / seg.chord
     c, r = inscribed_circles(seg)
-    x = (c - seg.le) @ u
+    edges, warnings, fits, axes = [], [], [], []
+    for region, name in ((LE, "leading edge"), (TE, "trailing edge")):
+        try:
+            ec = _edge_radius(seg, region, name, c, r)
+            edges.append((ec.centre, ec.radius, ec.arc_points))
+            fits.append({"arc_points": ec.arc_points, "flank_points": list(ec.flank_points), "rms": ec.rms,
+                         "flank_rms": None if not np.isfinite(ec.flank_rms) else ec.flank_rms})
+            if ec.arc_points >= 5 and np.isfinite(ec.flank_rms) and ec.rms > 4 * ec.flank_rms + NOT_ROUND:
+                warnings.append(f"section {seg.index}: the {name} is not a circle: its arc points scatter "
+                                f"{ec.rms * 1000:.1f} µm rms about the fitted circle against {ec.flank_rms * 1000:.1f} µm "
+                                "on the flanks (an elliptic, square or damaged edge?)")
+            axes.append(ec.axis)
+            if ec.arc_points < 2:
+                warnings.append(f"section {seg.index}: the {name} radius rests on {ec.arc_points} measured point "
+                                "on its arc and the flanks' tangency: measure more points round the edge")
+        except BladeReconError as err:
+            if strict_radius:
+                raise
+            warnings.append(str(err))
+            edges.append((seg.le if region == LE else seg.te, None, 0))
+            fits.append(None)
+            axes.append(None)
+    (le_c, le_r, le_n), (te_c, te_r, te_n) = edges
+    le2, te2 = _ends_from_circles(seg, le_c, le_r, te_c, te_r)
+    chord2 = float(np.linalg.norm(te2 - le2))
+    u = (te2 - le2) / chord2
+    x = (c - le2) @ u
+    order = np.argsort(x)
+    c, r, x = c[order], r[order], x[order]
+    r_max, x_max = _max_circle(x, r)
+    lo, hi = seg.curve.domain
+    loop = evaluate_curve(seg.curve, lo + (hi - lo) * np.arange(_LOOP_SAMPLES) / _LOOP_SAMPLES)
+    thickness_at, thickness_cn = {}, {}
+    for off in offsets:
+        for name, xx in (("le", off), ("te", chord2 - off)):
+            val = float(2 * np.interp(xx, x, r)) if x[0] <= xx <= x[-1] else None
+            thickness_at[f"{name}+{off:g}"] = val
+            thickness_cn[f"{name}+{off:g}"] = _chord_normal_thickness(loop, le2, u, [xx])[0]
+    frac_cam, frac_cn = {}, {}
+    for f in fractions:
+        xx = f * chord2
+        frac_cam[f"{f:g}"] = float(2 * np.interp(xx, x, r)) if x[0] <= xx <= x[-1] else None
+        frac_cn[f"{f:g}"] = _chord_normal_thickness(loop, le2, u, [xx])[0]
+    # camber height: the inscribed centres' largest distance from the chord (towards the suction side > 0)
+    v = np.array([-u[1], u[0]])
+    yc = (c - le2) @ v
+    k_c = int(np.argmax(np.abs(yc)))
+    area, centroid = _area_centroid(loop)
+    le3, te3 = seg.lift(le2)[0], seg.lift(te2)[0]
+    inlet = _metal_angle(seg, c, True, le_c)
+    outlet = _metal_angle(seg, c, False, te_c)
+    ends_camber = [None if (cc is None or rr_ is None or ax is None) else seg.lift(cc - rr_ * ax)[0].tolist()
+                   for cc, rr_, ax in ((le_c, le_r, axes[0]), (te_c, te_r, axes[1]))]
+    from bladerecon.core.sections.segmentation import NONPLANAR_LIMIT
+    projection = "span_normal" if seg.frame.flatness > NONPLANAR_LIMIT else "section_plane"
+    gauges = {"projection": projection, "thickness_at_chord_normal": thickness_cn, "thickness_at_fraction": frac_cam,
+              "thickness_at_fraction_chord_normal": frac_cn, "camber_height": float(abs(yc[k_c])),
+              "camber_height_pos_frac": float(x[k_c] / chord2), "area": area,
+              "centroid": seg.lift(centroid)[0].tolist(), "le_camber": ends_camber[0], "te_camber": ends_camber[1]}
+    return SectionParameters(
+        index=seg.index, points=int(n_points if n_points is not None else len(seg.points2d)),
+        le=le3, te=te3, chord=float(np.linalg.norm(te3 - le3)), chord_in_plane=chord2,
+        stagger_deg=_angle_deg(u), max_thickness=2 * r_max, max_thickness_pos=x_max,
+        max_thickness_pos_frac=x_max / chord2, le_radius=le_r, te_radius=te_r,
+        inlet_angle_deg=inlet, outlet_angle_deg=outlet, camber=seg.lift(c), camber_thickness=2 * r,
+        thickness_at=thickness_at, le_fit_points=le_n, te_fit_points=te_n,
+        le_center=seg.lift(le_c)[0], te_center=seg.lift(te_c)[0],
+        throat=None if seg.throat is None else {**seg.throat, "point": seg.lift(seg.throat["point"])[0]},
+        warnings=tuple(warnings), le_fit=fits[0], te_fit=fits[1], gauges=gauges)
+
+
+_LOOP_SAMPLES = 8000
+
+
+def _max_circle(x: np.ndarray, r: np.ndarray) -> tuple[float, float]:
+    """Largest inscribed radius and its chordwise position (vertex of the parabola through the top three)."""
     k = int(np.argmax(r))
-    if 0 < k < len(r) - 1:      # vertex of the parabola through the top three
+    if 0 < k < len(r) - 1:
         x3, r3 = x[k - 1:k + 2], r[k - 1:k + 2]
         co = np.polyfit(x3 - x3[1], r3, 2)
         if co[0] < 0:
             xv = -co[1] / (2 * co[0])
             if abs(xv) <= abs(x3[2] - x3[0]):
-                r_max, x_max = float(np.polyval(co, xv)), float(x3[1] + xv)
-            else:
-                r_max, x_max = float(r[k]), float(x[k])
-        else:
-            r_max, x_max = float(r[k]), float(x[k])
-    else:
-        r_max, x_max = float(r[k]), float(x[k])
-    edges, warnings = [], []
-    for region, name in ((LE, "leading edge"), (TE, "trailing edge")):
-        try:
-            edges.append(_edge_radius(seg, region, name))
-        except BladeReconError as err:
-            if strict_radius:
-                raise
-            warnings.append(str(err))
-            q = _edge_points(seg, region)
-            centre = q.mean(axis=0) if len(q) else (seg.le if region == LE else seg.te)
-            edges.append((centre, None, len(q)))
-    (le_c, le_r, le_n), (te_c, te_r, te_n) = edges
-    thickness_at = {}
-    for off in offsets:
-        for name, xx in (("le", off), ("te", seg.chord - off)):
-            val = float(2 * np.interp(xx, x, r)) if x[0] <= xx <= x[-1] else None
-            thickness_at[f"{name}+{off:g}"] = val
-    le3, te3 = seg.lift(seg.le)[0], seg.lift(seg.te)[0]
-    inlet = _metal_angle(seg, c, True, le_c)
-    outlet = _metal_angle(seg, c, False, te_c)
-    return SectionParameters(
-        index=seg.index, points=int(n_points if n_points is not None else len(seg.points2d)),
-        le=le3, te=te3, chord=float(np.linalg.norm(te3 - le3)), chord_in_plane=seg.chord,
-        stagger_deg=_angle_deg(u), max_thickness=2 * r_max, max_thickness_pos=x_max,
-        max_thickness_pos_frac=x_max / seg.chord, le_radius=le_r, te_radius=te_r,
-        inlet_angle_deg=inlet, outlet_angle_deg=outlet, camber=seg.lift(c), camber_thickness=2 * r,
-        thickness_at=thickness_at, le_fit_points=le_n, te_fit_points=te_n,
-        le_center=seg.lift(le_c)[0], te_center=seg.lift(te_c)[0],
-        throat=None if seg.throat is None else {**seg.throat, "point": seg.lift(seg.throat["point"])[0]},
-        warnings=tuple(warnings))
+                return float(np.polyval(co, xv)), float(x3[1] + xv)
+    return float(r[k]), float(x[k])
+
+
+def _area_centroid(loop: np.ndarray) -> tuple[float, np.ndarray]:
+    """Area (mm²) and centroid of a closed polygon (shoelace)."""
+    x, y = loop[:, 0], loop[:, 1]
+    x2, y2 = np.roll(x, -1), np.roll(y, -1)
+    cr = x * y2 - x2 * y
+    a = 0.5 * cr.sum()
+    cx = ((x + x2) * cr).sum() / (6 * a)
+    cy = ((y + y2) * cr).sum() / (6 * a)
+    return float(abs(a)), np.array([cx, cy])
+
+
+def stacking(params: list[SectionParameters], span_axis: np.ndarray, axial: np.ndarray | None = None) -> list[dict]:
+    """Stacking of every section relative to the first (issue 24 §4), mm and degrees.
+
+    The stacking axis runs along ``span_axis`` through the first section's centroid. ``sweep``:
+    the centroid's offset along the axial direction (``axial``, e.g. the flow direction, made
+    normal to the span; default +x), ``lean``: along span × axial (tangential), ``twist_deg``:
+    stagger minus the first section's stagger, in (−180, 180].
+    """
+    a = np.asarray(span_axis, float) / np.linalg.norm(span_axis)
+    ax = np.array([1.0, 0.0, 0.0]) if axial is None else np.asarray(axial, float)
+    ax = ax - (ax @ a) * a
+    if np.linalg.norm(ax) < 1e-9:
+        ax = np.array([0.0, 1.0, 0.0]) - a[1] * a
+    ax /= np.linalg.norm(ax)
+    tg = np.cross(a, ax)
+    c0 = np.asarray(params[0].gauges["centroid"])
+    out = []
+    for p in params:
+        d = np.asarray(p.gauges["centroid"]) - c0
+        tw = (p.stagger_deg - params[0].stagger_deg + 180.0) % 360.0 - 180.0
+        out.append({"sweep": float(d @ ax), "lean": float(d @ tg), "height": float(d @ a),
+                    "twist_deg": float(180.0 if tw == -180.0 else tw)})
+    return out
 
 
 #: the parameters compared measured vs nominal (mm, degrees)
@@ -300,22 +593,101 @@ def compare_with_nominal(measured: dict, nominal: dict) -> dict:
     return row
 
 
-def segment_sections(section_points: list[np.ndarray], span_axis: np.ndarray | None = None,
-                     first_point_is_measured: bool = True, throat=None, max_gap: float | None = None
-                     ) -> list[Segmentation]:
-    """Segment every section of a blade, keeping the LE on the same end from section to section.
+#: how the leading edge was chosen (``"le_rule"`` in the JSON): the flow direction given;
+#: the end where the file's first point lies (a guess); the blunter end by a vote of all
+#: sections (a guess)
+LE_RULES = ("flow", "first_point", "blunter_edge")
 
-    The first section's LE is the end where its first point lies when the measurement starts
-    at an edge (section tables, CMM plans), otherwise its blunter end; every further section
-    takes the end nearest the previous LE.
+
+@dataclass(frozen=True)
+class BladeSegmentation:
+    """Every section segmented with one leading-edge rule for the whole blade."""
+
+    sections: list
+    le_rule: str                 # one of :data:`LE_RULES`
+    warning: str | None          # set when the rule was a guess
+
+
+def canonical_loop(points: np.ndarray, span_axis: np.ndarray | None = None) -> np.ndarray:
+    """The same closed loop (n, 3) counter-clockwise about the span axis (or its best-fit
+    normal), starting at its point of largest x (then y, z): the rows are bitwise the same
+    whichever point the measurement started at and whichever way it ran, so every figure
+    measured from them is too (issue 24 §5)."""
+    P = np.asarray(points, float)
+    a = np.array([0.0, 0.0, 1.0]) if span_axis is None else np.asarray(span_axis, float)
+    c = P - P.mean(axis=0)
+    n = np.linalg.svd(c, full_matrices=False)[2][-1]
+    if abs(n @ a) < 0.2:            # a section lying along the span axis: use its own normal
+        a = n
+    nxt = np.roll(c, -1, axis=0)
+    area = float(np.cross(c, nxt).sum(axis=0) @ a)
+    if area < 0:
+        P = P[::-1]
+    start = int(np.lexsort((P[:, 2], P[:, 1], P[:, 0]))[-1])
+    return np.roll(P, -start, axis=0)
+
+
+def _region_mean_curvature(seg: Segmentation, region: int) -> float:
+    from bladerecon.core.sections.segmentation import signed_curvature
+    a, b = seg.region_interval(region)
+    t = a + (b - a) * (np.arange(64) + 0.5) / 64
+    lo, hi = seg.curve.domain
+    return float(np.mean(signed_curvature(seg.curve, lo + np.mod(t - lo, hi - lo))))
+
+
+def segment_blade(section_points: list[np.ndarray], span_axis: np.ndarray | None = None,
+                  first_point_is_measured: bool = False, throat=None, max_gap: float | None = None,
+                  flow: np.ndarray | None = None, canonical: bool = True) -> BladeSegmentation:
+    """Segment every section with one leading-edge rule for the whole blade (issue 24 §1).
+
+    ``flow`` (3D direction the fluid travels): the LE of every section is its upstream end.
+    Without it, ``first_point_is_measured`` names the end where the first section's first
+    point lies the LE (when it lies at an end), and otherwise all sections vote: the LE is
+    the end that is blunter (lower mean curvature over its edge region) on most sections.
+    Every further section takes the end nearest the previous LE, so no section is turned
+    the other way. ``canonical``: measure each loop from :func:`canonical_loop` (figures
+    independent of the start point and direction).
     """
     from bladerecon.core.reconstruct import first_point_edge_hint
     from bladerecon.core.sections.segmentation import segment_section
 
-    hint = first_point_edge_hint(section_points[0]) if first_point_is_measured else None
-    out = []
-    for k, p in enumerate(section_points):
-        seg = segment_section(p, k, span_axis, le_hint=hint, throat=throat, max_gap=max_gap)
-        hint = seg.lift(seg.le)[0]
-        out.append(seg)
-    return out
+    hint = first_point_edge_hint(section_points[0]) if (first_point_is_measured and flow is None) else None
+    if flow is not None:
+        f = np.asarray(flow, float)
+        if f.shape != (3,) or not np.all(np.isfinite(f)) or np.linalg.norm(f) < 1e-12:
+            raise BladeReconError(f"flow direction {f.tolist()}: give three numbers X,Y,Z, not all zero")
+        flow = f / np.linalg.norm(f)
+        rule, warning = "flow", None
+    elif hint is not None:
+        rule = "first_point"
+        warning = ("leading edge guessed: the end where the first section's first point lies; "
+                   "give the flow direction (--flow X,Y,Z) to be sure")
+    else:
+        rule = "blunter_edge"
+        warning = ("leading edge guessed: the blunter end on most sections; "
+                   "give the flow direction (--flow X,Y,Z) to be sure")
+    loops = [canonical_loop(p, span_axis) if canonical else np.asarray(p, float) for p in section_points]
+
+    def run(first_hint):
+        out, h = [], first_hint
+        for k, p in enumerate(loops):
+            seg = segment_section(p, k, span_axis, le_hint=h, throat=throat, max_gap=max_gap, flow=flow)
+            h = seg.lift(seg.le)[0]
+            out.append(seg)
+        return out
+
+    segs = run(hint)
+    if rule == "blunter_edge":
+        sharper_le = sum(_region_mean_curvature(s, LE) > _region_mean_curvature(s, TE) for s in segs)
+        if 2 * sharper_le > len(segs):       # most sections say the other end is the LE
+            segs = run(segs[0].lift(segs[0].te)[0])
+    return BladeSegmentation(segs, rule, warning)
+
+
+def segment_sections(section_points: list[np.ndarray], span_axis: np.ndarray | None = None,
+                     first_point_is_measured: bool = True, throat=None, max_gap: float | None = None,
+                     flow: np.ndarray | None = None, canonical: bool = False) -> list[Segmentation]:
+    """Segment every section of a blade, keeping the LE on the same end from section to section
+    (:func:`segment_blade`; this keeps the measured order of the points unless ``canonical``)."""
+    return segment_blade(section_points, span_axis, first_point_is_measured, throat, max_gap, flow,
+                         canonical).sections

@@ -86,8 +86,10 @@ def hausdorff_to_polyline(curve, poly: np.ndarray, t_poly: np.ndarray, samples_p
 
 
 def plan_section(dense: np.ndarray, index: int = 0, tolerance: float = DEFAULT_TOLERANCE,
-                 span_axis: np.ndarray | None = None, max_points: int | None = None) -> SectionPlan:
-    """The seed 000 §2.1 plan of one dense closed section (n, 3) mm; see the module docstring."""
+                 span_axis: np.ndarray | None = None, max_points: int | None = None,
+                 flow: np.ndarray | None = None) -> SectionPlan:
+    """The seed 000 §2.1 plan of one dense closed section (n, 3) mm; see the module docstring.
+    ``flow``: the direction the fluid travels; the plan starts at the upstream edge (issue 24)."""
     P = np.asarray(dense, float)
     n = len(P)
     if n < 20:
@@ -95,7 +97,7 @@ def plan_section(dense: np.ndarray, index: int = 0, tolerance: float = DEFAULT_T
                               "section (hundreds of points): use a smaller step")
     if not tolerance > 0:
         raise BladeReconError(f"--tolerance {tolerance}: give a positive distance in mm")
-    seg = segment_section(P, index, span_axis, method="interpolate")
+    seg = segment_section(P, index, span_axis, method="interpolate", flow=flow)
     # dense indices of the two curvature extrema: the nominal points nearest the peaks
     peaks = evaluate_curve(seg.curve, np.array([seg.t_le_peak, seg.t_te_peak]))
     q = seg.frame.to_plane(P)
@@ -138,9 +140,9 @@ def plan_section(dense: np.ndarray, index: int = 0, tolerance: float = DEFAULT_T
 
 
 def plan_sections(sections: list[np.ndarray], tolerance: float = DEFAULT_TOLERANCE,
-                  span_axis: np.ndarray | None = None) -> list[SectionPlan]:
+                  span_axis: np.ndarray | None = None, flow: np.ndarray | None = None) -> list[SectionPlan]:
     """Plans of several dense sections (one per section, hub to tip)."""
-    return [plan_section(p, k, tolerance, span_axis) for k, p in enumerate(sections)]
+    return [plan_section(p, k, tolerance, span_axis, flow=flow) for k, p in enumerate(sections)]
 
 
 @dataclass(frozen=True)
@@ -156,7 +158,8 @@ class SurfacePlan:
 
 
 def plan_for_surface(sections: list[np.ndarray], tolerance: float, surface_error,
-                     span_axis: np.ndarray | None = None, max_rounds: int = 8) -> SurfacePlan:
+                     span_axis: np.ndarray | None = None, max_rounds: int = 8,
+                     flow: np.ndarray | None = None) -> SurfacePlan:
     """Plans whose *surface* is within ``tolerance`` of the nominal (mm), not only each
     section's cubic.
 
@@ -170,7 +173,7 @@ def plan_for_surface(sections: list[np.ndarray], tolerance: float, surface_error
     """
     section_tol = float(tolerance)
     for rounds in range(1, max_rounds + 1):
-        plans = plan_sections(sections, section_tol, span_axis)
+        plans = plan_sections(sections, section_tol, span_axis, flow)
         error = float(surface_error(plans))
         if error <= tolerance:
             return SurfacePlan(plans, section_tol, error, rounds, True)

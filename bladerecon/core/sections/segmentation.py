@@ -331,14 +331,15 @@ def _edge_analysis(kappa: np.ndarray, i_end: int, perimeter: float, chord: float
 def segment_section(points: np.ndarray, index: int = 0, span_axis: np.ndarray | None = None,
                     le_hint: np.ndarray | None = None, throat: ThroatSpec | None = None,
                     method: str | None = None, max_gap: float | None = None,
-                    peak_ratio: float = 4.0) -> Segmentation:
+                    peak_ratio: float = 4.0, flow: np.ndarray | None = None) -> Segmentation:
     """Segment one closed, ordered section (n, 3) mm into LE, suction, TE and pressure regions.
 
     See the module docstring for the steps. ``le_hint``: a 3D point near the LE (e.g. the
     first measured point when the measurement starts at the LE). ``method``: 'interpolate'
     or 'approximate' to force the section curve, default chosen from the data.
     ``peak_ratio``: the curvature maximum at each end must exceed this multiple of the
-    median curvature of the section. Raises :class:`BladeReconError` for open sections,
+    median curvature of the section. ``flow``: the direction the fluid travels (3D); the
+    LE is then the upstream end (before ``le_hint``). Raises :class:`BladeReconError` for open sections,
     gaps, and profiles without clear edge curvature peaks.
     """
     P = np.asarray(points, float)
@@ -375,7 +376,10 @@ def segment_section(points: np.ndarray, index: int = 0, span_axis: np.ndarray | 
         info.append({"t_end": t_end, "t_peak": t[i_peak], "t_minus": t[i_m], "t_plus": t[i_p],
                      "peak": peak, "mean_kappa": float(np.mean(kappa[span]))})
 
-    if le_hint is not None:
+    if flow is not None:
+        f2 = frame.to_plane(frame.origin + np.asarray(flow, float).reshape(1, 3))[0]
+        swap = bool((ends[1] - ends[0]) @ f2 < 0)      # LE upstream: smaller coordinate along the flow
+    elif le_hint is not None:
         hint2 = frame.to_plane(np.asarray(le_hint, float).reshape(1, 3))[0]
         swap = np.linalg.norm(ends[1] - hint2) < np.linalg.norm(ends[0] - hint2)
     else:
