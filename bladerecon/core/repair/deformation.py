@@ -42,6 +42,7 @@ class SpanField:
     z_range: tuple              # nominal span (mm)
     lam: float = 0.0            # the chosen stiffness
     edf: float = 0.0            # effective degrees of freedom
+    outer: np.ndarray = None    # 4x4 small rigid motion out of the section planes (tilt, z shift)
 
     def values(self, z) -> np.ndarray:
         """(m, 3): d_x, d_y (mm), theta (rad) at heights z (extrapolated beyond the range)."""
@@ -52,8 +53,17 @@ class SpanField:
         return np.degrees(self.values(z)[:, 2])
 
     def apply(self, points: np.ndarray, inverse: bool = False) -> np.ndarray:
-        """The field (or its exact inverse) applied to points (m, 3) mm."""
+        """The field (or its exact inverse) applied to points (m, 3) mm: the in-plane
+        motion at each height, then the out-of-plane rigid motion ``outer``."""
         P = np.asarray(points, float)
+        G = np.eye(4) if self.outer is None else self.outer
+        if inverse:
+            Gi = np.linalg.inv(G)
+            P = P @ Gi[:3, :3].T + Gi[:3, 3]
+        out = self._in_plane(P, inverse)
+        return out if inverse else out @ G[:3, :3].T + G[:3, 3]
+
+    def _in_plane(self, P: np.ndarray, inverse: bool) -> np.ndarray:
         val = self.values(P[:, 2])
         a = -val[:, 2] if inverse else val[:, 2]
         c = self.centre
@@ -100,12 +110,13 @@ def fit_span_field(points: np.ndarray, project, centre, z_range, *, n_spans: int
     P = np.asarray(points, float)
     z0, z1 = float(z_range[0]), float(z_range[1])
     knots = _knots(z0, z1, n_spans)
-    B = _design(knots, P[:, 2])
-    n = B.shape[1]
+    n = len(knots) - 4
     c = np.asarray(centre, float)[:2]
+    c3 = np.array([c[0], c[1], 0.5 * (z0 + z1)])
     coef = np.zeros((n, 3))
-    field = SpanField(knots, coef, c, (z0, z1))
-    K = np.zeros((3 * n, 3 * n))
+    G = np.eye(4)
+    field = SpanField(knots, coef, c, (z0, z1), outer=G)
+    K = np.zeros((3 * n + 3, 3 * n + 3))
     pen = _penalty(n)
     for k in range(3):
         K[k * n:(k + 1) * n, k * n:(k + 1) * n] = pen
@@ -119,18 +130,26 @@ def fit_span_field(points: np.ndarray, project, centre, z_range, *, n_spans: int
         # itself looks like outliers near the tip
         w = np.ones(len(P)) if it == 0 else _biweight(signed)
         # increments in the deformed frame: normal rotated forward with the field
+        B = _design(knots, foot[:, 2])
         y = field.apply(foot)
         nd = field.apply(foot + normal) - y
         arm = np.stack([-(y[:, 1] - c[1]), y[:, 0] - c[0]], axis=1)     # k x (y - c)
+        # out of the section planes: a z shift and tilts about x and y through c3 (a tilt's
+        # in-plane part is a linear bend; its z part is what tells them apart)
+        r3 = y - c3
+        tilt_x = nd[:, 2] * r3[:, 1] - nd[:, 1] * r3[:, 2]
+        tilt_y = nd[:, 0] * r3[:, 2] - nd[:, 2] * r3[:, 0]
         A = np.concatenate([B * nd[:, :1], B * nd[:, 1:2],
-                            B * ((arm * nd[:, :2]).sum(1) / radius)[:, None]], axis=1)
-        x0 = np.concatenate([coef[:, 0], coef[:, 1], coef[:, 2] * radius])
+                            B * ((arm * nd[:, :2]).sum(1) / radius)[:, None],
+                            nd[:, 2:3], tilt_x[:, None] / radius, tilt_y[:, None] / radius], axis=1)
+        x0 = np.concatenate([coef[:, 0], coef[:, 1], coef[:, 2] * radius, np.zeros(3)])
         AtW = A.T * w
         N = AtW @ A
         rhs = AtW @ signed
         x, lam, edf = _gcv_solve(N, rhs, K, x0, signed, A, w)
-        coef = np.stack([x[:n], x[n:2 * n], x[2 * n:] / radius], axis=1)
-        field = SpanField(knots, coef, c, (z0, z1), lam, edf)
+        coef = np.stack([x[:n], x[n:2 * n], x[2 * n:3 * n] / radius], axis=1)
+        G = _small_motion(x[3 * n:], c3, radius) @ G
+        field = SpanField(knots, coef, c, (z0, z1), lam, edf, G)
     Q = field.apply(P, inverse=True)
     foot, normal, signed, state = project(Q, state)
     w = _biweight(signed)
@@ -138,8 +157,24 @@ def fit_span_field(points: np.ndarray, project, centre, z_range, *, n_spans: int
     nd = field.apply(foot + normal) - y
     good = w > 0
     noise = _MAD_TO_SIGMA * float(np.median(np.abs(signed[good] - np.median(signed[good])))) if good.any() else 0.0
-    return field, {"signed": signed, "weights": w, "normal": nd, "foot": y, "state": state,
+    return field, {"nominal_frame": Q, "signed": signed, "weights": w, "normal": nd, "foot": y, "state": state,
                    "noise_mm": noise}
+
+
+def _small_motion(x: np.ndarray, centre: np.ndarray, radius: float) -> np.ndarray:
+    """4x4: rotation about x and y (angles x[1], x[2] / radius, Rodrigues) through centre,
+    then a shift x[0] along z."""
+    w = np.array([x[1], x[2], 0.0]) / radius
+    a = float(np.linalg.norm(w))
+    R = np.eye(3)
+    if a > 0:
+        k = w / a
+        Kx = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+        R = np.eye(3) + np.sin(a) * Kx + (1 - np.cos(a)) * Kx @ Kx
+    M = np.eye(4)
+    M[:3, :3] = R
+    M[:3, 3] = centre - R @ centre + np.array([0.0, 0.0, x[0]])
+    return M
 
 
 def _biweight(r: np.ndarray) -> np.ndarray:
