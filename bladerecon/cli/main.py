@@ -38,7 +38,8 @@ def build_parser() -> argparse.ArgumentParser:
 # One module per subcommand, each with ``add_parser(sub)`` that calls
 # ``set_defaults(run=function_returning_summary_dict)``; main() prints the summary with --json.
 COMMAND_MODULES: tuple[str, ...] = ("bladerecon.cli.reconstruct", "bladerecon.cli.deviation", "bladerecon.cli.sections",
-                                    "bladerecon.cli.plan", "bladerecon.cli.tspline", "bladerecon.cli.acquire")
+                                    "bladerecon.cli.plan", "bladerecon.cli.tspline", "bladerecon.cli.acquire",
+                                    "bladerecon.cli.repair")
 
 
 # The interpreter FreeCAD's Python modules are built for (Debian/Ubuntu); BLADERECON_PYTHON
@@ -85,6 +86,10 @@ def needed_modules(args: argparse.Namespace) -> list[str]:
     elif command == "tspline":
         if args.output:
             need.append("FreeCAD")
+    elif command == "repair":
+        need.append("FreeCAD")              # the nominal is a shape
+        if args.report:
+            need.append("matplotlib")
     elif command in ("acquire", "simulate-instrument"):
         if getattr(args, "port", None):     # --replay reads a journal, --link makes a pty: no pyserial
             need.append("serial")
