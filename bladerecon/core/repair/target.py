@@ -39,7 +39,7 @@ from bladerecon.core.repair.deformation import SpanField, fit_span_field
 
 __all__ = ["RepairResult", "repair_target", "adapt_surface"]
 
-_REGISTER_POINTS = 3000
+_REGISTER_POINTS = 1200
 _U_BINS = 256
 _MIN_UNDAMAGED = 0.2         # share of the points within tolerance needed to fit the field
 _MAX_DAMAGE_SHARE = 0.4      # damaged share of the nominal's area beyond which we refuse
@@ -167,7 +167,7 @@ def repair_target(points: np.ndarray, nominal: BSplineSurface, sign: float = 1.0
     if share > max_damage_share:
         raise BladeReconError(
             f"damage over {100 * share:.0f} % of the blade's area ({grid['damaged_area']:.0f} of "
-            f"{grid['total_area']:.0f} mm²), more than the {100 * max_damage_share:.0f} % a repair target "
+            f"{grid['total_area']:.0f} mm²), more than the {100 * max_damage_share:g} % a repair target "
             f"can be built for: check the nominal and the tolerance")
     t3 = time.perf_counter()
     und = (w > 0) & ok
