@@ -66,6 +66,8 @@ def test_cloud_target_matches_the_true_deformed_blade(case, cloud_result):
     assert damaged.sum() > 100
     assert d[damaged].max() < 0.02            # over the damaged regions (issue: within 0.02 mm)
     assert d[~damaged].max() < 3 * NOISE      # elsewhere within the noise
+    blend = cloud_result.blend
+    assert blend["band_mm"] >= 2.0 and blend["max_curvature_jump"] < 0.05     # 1/mm; the TE circle is ~2 1/mm
     naive, _ = _truth_errors(sd, cloud_result.naive)
     assert naive[damaged].max() > 5 * d[damaged].max()   # the naive target misses by far more
 

@@ -69,7 +69,7 @@ def write_repair_report(folder: str, summary: dict, res) -> None:
     if tip:
         g = res.depth_map
         v_cut = float(np.interp(g["cut_mm"], g["z_rows"], g["v_rows"])) if len(g["z_rows"]) > 1 else 0.0
-        write_step(tip_missing_shape(res.target, v_cut), os.path.join(folder, "missing.step"))
+        write_step(tip_missing_shape(res.adapted, v_cut), os.path.join(folder, "missing.step"))
         files.append("missing.step")
     with open(os.path.join(folder, "summary.json"), "w", encoding="utf-8") as f:
         json.dump(summary, f, indent=2)

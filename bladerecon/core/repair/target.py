@@ -51,6 +51,7 @@ class RepairResult:
 
     target: BSplineSurface
     naive: BSplineSurface
+    adapted: BSplineSurface          # the adapted nominal alone (the nominal's parameters)
     alignment: Alignment
     field: SpanField
     regions: list
@@ -115,6 +116,16 @@ def _register(points: np.ndarray, surface: BSplineSurface, sign: float) -> Align
     return best_fit(sub, SurfaceProjector(surface, sign), "rigid", robust=False)
 
 
+def _naive_fit(points: np.ndarray, surface: BSplineSurface, sign: float, undamaged: np.ndarray) -> Alignment:
+    """The naive target's best fit: the nominal itself, rigidly fitted to the points the
+    deformation fit found undamaged (damage cannot pull it)."""
+    idx = np.nonzero(undamaged)[0]
+    rng = np.random.default_rng(1)
+    if len(idx) > _REGISTER_POINTS:
+        idx = rng.choice(idx, _REGISTER_POINTS, replace=False)
+    return best_fit(points[idx], SurfaceProjector(surface, sign), "rigid")
+
+
 def _projector(surface: BSplineSurface, sign: float):
     def project(Q, state):
         if state is None:
@@ -158,8 +169,7 @@ def repair_target(points: np.ndarray, nominal: BSplineSurface, sign: float = 1.0
             f"(at least {100 * _MIN_UNDAMAGED:.0f} % needed): check the nominal, or raise --tolerance")
     adapted = adapt_surface(nominal, fld)
     inv = np.linalg.inv(alignment.matrix)
-    target = transform_surface(adapted, inv)
-    naive = transform_surface(nominal, inv)
+    naive = transform_surface(nominal, np.linalg.inv(_naive_fit(P0, nominal, sign, w > 0).matrix))
 
     mode = "sections" if section is not None and _planar_sections(P, section) else "cloud"
     grid = _damage_grid(P, fit, nominal, fld, z_to_v, (z_lo, z_hi), tolerance, cut_height, section, mode)
@@ -169,6 +179,9 @@ def repair_target(points: np.ndarray, nominal: BSplineSurface, sign: float = 1.0
             f"damage over {100 * share:.0f} % of the blade's area ({grid['damaged_area']:.0f} of "
             f"{grid['total_area']:.0f} mm²), more than the {100 * max_damage_share:g} % a repair target "
             f"can be built for: check the nominal and the tolerance")
+    band = blend if blend is not None else _default_band(grid["regions"])
+    target_reg, blend_info = _blend_target(adapted, nominal, sign, fit, grid, band, tolerance)
+    target = transform_surface(target_reg, inv)
     t3 = time.perf_counter()
     und = (w > 0) & ok
     resid = signed[und]
@@ -185,18 +198,62 @@ def repair_target(points: np.ndarray, nominal: BSplineSurface, sign: float = 1.0
         "stiffness_edf": fld.edf, "noise_mm": fit["noise_mm"],
         "centre_mm": [float(c) for c in fld.centre],
     }
-    seconds = {"register": t1 - t0, "deformation": t2 - t1, "damage": t3 - t2}
+    seconds = {"register": t1 - t0, "deformation": t2 - t1, "damage_and_blend": t3 - t2}
     seconds["total"] = time.perf_counter() - t0
     return RepairResult(
-        target=target, naive=naive, alignment=alignment, field=fld, regions=grid["regions"],
+        target=target, naive=naive, adapted=transform_surface(adapted, inv), alignment=alignment, field=fld, regions=grid["regions"],
         volume_mm3=float(sum(r["volume_mm3"] for r in grid["regions"])), deformation=deformation,
         target_vs_measured={"max": float(np.max(np.abs(resid))) if resid.size else 0.0,
                             "rms": float(np.sqrt(np.mean(resid ** 2))) if resid.size else 0.0,
                             "points": int(resid.size)},
         naive_vs_target=naive_gap,
-        blend={"continuity": "C2 (one surface: adapted nominal everywhere, no measured correction blended)",
-               "max_curvature_jump": 0.0, "band_mm": blend},
+        blend=blend_info,
         depth_map=grid, seconds=seconds, mode=mode)
+
+
+def _default_band(regions: list) -> float:
+    """Band width (mm) from the damage size: 10x the deepest non-tip damage, 2 to 8 mm."""
+    depths = [r["max_depth_mm"] for r in regions if r["kind"] != "tip"]
+    return float(np.clip(10.0 * max(depths, default=0.3), 2.0, 8.0))
+
+
+def _blend_target(adapted, nominal, sign, fit, grid, band, tol, n_u: int = 600, n_v: int = 81):
+    """Target = adapted + b e n on a dense grid, interpolated (module doc of blend.py);
+    and the blend's numbers: the largest curvature jump across the band boundaries."""
+    from bladerecon.core.geometry.projection import surface_derivatives_fast
+    from bladerecon.core.repair.blend import blend_weight, fit_correction, grid_points
+    from bladerecon.core.surface.skinning import interpolate_grid
+
+    u_f, v_f = fit["state"]
+    clean = (fit["weights"] > 0) & (np.abs(fit["signed"]) <= tol)
+    corr = fit_correction(u_f, v_f, fit["signed"], clean.astype(float), nominal.u_domain, nominal.v_domain)
+    uu, vv, nom_pts = grid_points(nominal, n_u, n_v)
+    S, Su, Sv = surface_derivatives_fast(adapted, uu.ravel(), vv.ravel())[:3]
+    n = np.cross(Su, Sv)
+    n = sign * n / np.linalg.norm(n, axis=1, keepdims=True)
+    b = blend_weight(grid, band, uu.ravel(), nom_pts[..., 2].ravel())
+    e = corr(uu.ravel(), vv.ravel())
+    pts = (S + (b * e)[:, None] * n).reshape(n_v, n_u, 3)
+    target = interpolate_grid(pts, "chord")
+    k_t = _row_curvature(pts)
+    k_a = _row_curvature(S.reshape(n_v, n_u, 3))
+    bb = b.reshape(n_v, n_u)
+    inside = (bb > 0) & (bb < 1)
+    edge = inside ^ np.roll(inside, 1, axis=1)        # a node pair across a band boundary
+    jump = np.abs(np.diff(np.concatenate([k_t, k_t[:, :1]], axis=1), axis=1)
+                  - np.diff(np.concatenate([k_a, k_a[:, :1]], axis=1), axis=1))
+    jump = np.roll(jump, 1, axis=1)
+    info = {"continuity": "G2: a C2 blend weight (quintic smootherstep) of a smooth measured correction",
+            "band_mm": band, "max_curvature_jump": float(jump[edge].max()) if edge.any() else 0.0,
+            "max_correction_mm": float(np.max(np.abs(e))), "curvature_units": "1/mm"}
+    return target, info
+
+
+def _row_curvature(pts: np.ndarray) -> np.ndarray:
+    """Discrete curvature (1/mm) along each closed row of a grid (n_v, n_u, 3)."""
+    d1 = (np.roll(pts, -1, axis=1) - np.roll(pts, 1, axis=1)) / 2
+    d2 = np.roll(pts, -1, axis=1) - 2 * pts + np.roll(pts, 1, axis=1)
+    return np.linalg.norm(np.cross(d1, d2), axis=2) / np.maximum(np.linalg.norm(d1, axis=2) ** 3, 1e-300)
 
 
 def _planar_sections(P: np.ndarray, section: np.ndarray) -> bool:
@@ -328,7 +385,7 @@ def _damage_grid(P, fit, nominal, fld, z_to_v, z_range, tol, cut_height, section
                         "span_range_mm": [float(cut), float(z_hi)], "chord_range": [0.0, 1.0]})
         total_area += perim * tip_span
     damaged_area = float(sum(r["area_mm2"] for r in regions))
-    return {"regions": regions, "depth": mean, "damaged": damaged, "labels": labels, "z_rows": z_rows,
+    return {"regions": regions, "depth": mean, "ds": ds, "damaged": damaged, "labels": labels, "z_rows": z_rows,
             "chord": chord, "u_edges": np.linspace(u0, u1, _U_BINS + 1), "cut_mm": cut,
             "total_area": total_area, "damaged_area": damaged_area, "v_rows": v_rows}
 
