@@ -385,7 +385,7 @@ def _damage_grid(P, fit, nominal, fld, z_to_v, z_range, tol, cut_height, section
                         "span_range_mm": [float(cut), float(z_hi)], "chord_range": [0.0, 1.0]})
         total_area += perim * tip_span
     damaged_area = float(sum(r["area_mm2"] for r in regions))
-    return {"regions": regions, "depth": mean, "ds": ds, "damaged": damaged, "labels": labels, "z_rows": z_rows,
+    return {"regions": regions, "depth": mean, "ds": ds, "point_depth": depth, "damaged": damaged, "labels": labels, "z_rows": z_rows,
             "chord": chord, "u_edges": np.linspace(u0, u1, _U_BINS + 1), "cut_mm": cut,
             "total_area": total_area, "damaged_area": damaged_area, "v_rows": v_rows}
 
