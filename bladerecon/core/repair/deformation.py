@@ -29,6 +29,8 @@ from scipy.interpolate import BSpline
 __all__ = ["SpanField", "fit_span_field"]
 
 _TUKEY_C = 4.685
+_SETTLED_MM = 1e-3          # the z shift joins the fit when no point moved more than this (mm)
+_CONVERGED_MM = 2e-5        # Gauss-Newton ends when no point moves more than this (mm)
 _MAD_TO_SIGMA = 1.4826
 
 
@@ -42,7 +44,7 @@ class SpanField:
     z_range: tuple              # nominal span (mm)
     lam: float = 0.0            # the chosen stiffness
     edf: float = 0.0            # effective degrees of freedom
-    outer: np.ndarray = None    # 4x4 small rigid motion out of the section planes (tilt, z shift)
+    shear: np.ndarray = None    # z shift and z slopes in x, y (mm, mm/mm): the out-of-plane motion
 
     def values(self, z) -> np.ndarray:
         """(m, 3): d_x, d_y (mm), theta (rad) at heights z (extrapolated beyond the range)."""
@@ -54,14 +56,27 @@ class SpanField:
 
     def apply(self, points: np.ndarray, inverse: bool = False) -> np.ndarray:
         """The field (or its exact inverse) applied to points (m, 3) mm: the in-plane
-        motion at each height, then the out-of-plane rigid motion ``outer``."""
+        motion at each height, then the out-of-plane part ``z += s0 + s1 (x - cx) + s2 (y - cy)``
+        (a small tilt's z part; its in-plane part, a linear bend, is in d(z))."""
         P = np.asarray(points, float)
-        G = np.eye(4) if self.outer is None else self.outer
         if inverse:
-            Gi = np.linalg.inv(G)
-            P = P @ Gi[:3, :3].T + Gi[:3, 3]
-        out = self._in_plane(P, inverse)
-        return out if inverse else out @ G[:3, :3].T + G[:3, 3]
+            P = P.copy()
+            P[:, 2] -= self._lift(P)
+            return self._in_plane(P, True)
+        out = self._in_plane(P, False)
+        out[:, 2] += self._lift(out)
+        return out
+
+    def _lift(self, P: np.ndarray) -> np.ndarray:
+        if self.shear is None:
+            return np.zeros(len(P))
+        s = self.shear
+        return s[0] + s[1] * (P[:, 0] - self.centre[0]) + s[2] * (P[:, 1] - self.centre[1])
+
+    def tilt_deg(self) -> tuple[float, float]:
+        """The out-of-plane tilt (degrees) about y and x that the z slopes stand for."""
+        s = np.zeros(3) if self.shear is None else self.shear
+        return float(np.degrees(np.arctan(s[1]))), float(np.degrees(np.arctan(s[2])))
 
     def _in_plane(self, P: np.ndarray, inverse: bool) -> np.ndarray:
         val = self.values(P[:, 2])
@@ -97,7 +112,7 @@ def _penalty(n: int, order: int = 3) -> np.ndarray:
 
 
 def fit_span_field(points: np.ndarray, project, centre, z_range, *, n_spans: int = 8,
-                   iterations: int = 6, radius: float = 25.0) -> tuple[SpanField, dict]:
+                   iterations: int = 20, radius: float = 25.0) -> tuple[SpanField, dict]:
     """Fit the field to measured points (m, 3) mm (already best-fitted to the nominal).
 
     ``project(Q, state) -> (foot, outward normal, signed distance, state)`` projects points
@@ -112,15 +127,15 @@ def fit_span_field(points: np.ndarray, project, centre, z_range, *, n_spans: int
     knots = _knots(z0, z1, n_spans)
     n = len(knots) - 4
     c = np.asarray(centre, float)[:2]
-    c3 = np.array([c[0], c[1], 0.5 * (z0 + z1)])
     coef = np.zeros((n, 3))
-    G = np.eye(4)
-    field = SpanField(knots, coef, c, (z0, z1), outer=G)
+    shear = np.zeros(3)
+    field = SpanField(knots, coef, c, (z0, z1), shear=shear)
     K = np.zeros((3 * n + 3, 3 * n + 3))
     pen = _penalty(n)
     for k in range(3):
         K[k * n:(k + 1) * n, k * n:(k + 1) * n] = pen
     state = None
+    with_z = False
     w = np.ones(len(P))
     lam, edf = 0.0, 0.0
     for it in range(iterations):
@@ -134,22 +149,32 @@ def fit_span_field(points: np.ndarray, project, centre, z_range, *, n_spans: int
         y = field.apply(foot)
         nd = field.apply(foot + normal) - y
         arm = np.stack([-(y[:, 1] - c[1]), y[:, 0] - c[0]], axis=1)     # k x (y - c)
-        # out of the section planes: a z shift and tilts about x and y through c3 (a tilt's
-        # in-plane part is a linear bend; its z part is what tells them apart)
-        r3 = y - c3
-        tilt_x = nd[:, 2] * r3[:, 1] - nd[:, 1] * r3[:, 2]
-        tilt_y = nd[:, 0] * r3[:, 2] - nd[:, 2] * r3[:, 0]
+        # out of the section planes: the z part of a small tilt (its in-plane part is a
+        # linear bend, already in d(z): kept apart, the columns are not collinear) and a z
+        # shift. On a twisted blade a z shift is nearly a twist and shift at every height (a
+        # helix); only the taper of chord and thickness tells them apart, so it joins only
+        # once the rest has settled and the damage weighs nothing (from the start, the
+        # first steps, pulled by the damage, wander along the helix).
         A = np.concatenate([B * nd[:, :1], B * nd[:, 1:2],
-                            B * ((arm * nd[:, :2]).sum(1) / radius)[:, None],
-                            nd[:, 2:3], tilt_x[:, None] / radius, tilt_y[:, None] / radius], axis=1)
+                            B * ((arm * nd[:, :2]).sum(1) / radius)[:, None], nd[:, 2:3],
+                            (nd[:, 2] * (y[:, 0] - c[0]) / radius)[:, None],
+                            (nd[:, 2] * (y[:, 1] - c[1]) / radius)[:, None]], axis=1)
         x0 = np.concatenate([coef[:, 0], coef[:, 1], coef[:, 2] * radius, np.zeros(3)])
         AtW = A.T * w
         N = AtW @ A
         rhs = AtW @ signed
-        x, lam, edf = _gcv_solve(N, rhs, K, x0, signed, A, w)
+        ridge = np.zeros(len(x0))
+        if not with_z:
+            ridge[3 * n] = 1e6 * (np.trace(N) / len(x0) + 1.0)       # holds the z shift
+        x, lam, edf = _gcv_solve(N + np.diag(ridge), rhs, K, x0, signed, A, w)
+        moved = float(np.max(np.abs(A @ (x - x0))))     # largest move of a point along its normal (mm)
         coef = np.stack([x[:n], x[n:2 * n], x[2 * n:3 * n] / radius], axis=1)
-        G = _small_motion(x[3 * n:], c3, radius) @ G
-        field = SpanField(knots, coef, c, (z0, z1), lam, edf, G)
+        shear = shear + x[3 * n:] * np.array([1.0, 1.0 / radius, 1.0 / radius])
+        field = SpanField(knots, coef, c, (z0, z1), lam, edf, shear)
+        if with_z and moved < _CONVERGED_MM:
+            break
+        if not with_z and it >= 2 and (moved < _SETTLED_MM or it >= iterations // 2):
+            with_z = True
     Q = field.apply(P, inverse=True)
     foot, normal, signed, state = project(Q, state)
     w = _biweight(signed)
@@ -159,22 +184,6 @@ def fit_span_field(points: np.ndarray, project, centre, z_range, *, n_spans: int
     noise = _MAD_TO_SIGMA * float(np.median(np.abs(signed[good] - np.median(signed[good])))) if good.any() else 0.0
     return field, {"nominal_frame": Q, "signed": signed, "weights": w, "normal": nd, "foot": y, "state": state,
                    "noise_mm": noise}
-
-
-def _small_motion(x: np.ndarray, centre: np.ndarray, radius: float) -> np.ndarray:
-    """4x4: rotation about x and y (angles x[1], x[2] / radius, Rodrigues) through centre,
-    then a shift x[0] along z."""
-    w = np.array([x[1], x[2], 0.0]) / radius
-    a = float(np.linalg.norm(w))
-    R = np.eye(3)
-    if a > 0:
-        k = w / a
-        Kx = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
-        R = np.eye(3) + np.sin(a) * Kx + (1 - np.cos(a)) * Kx @ Kx
-    M = np.eye(4)
-    M[:3, :3] = R
-    M[:3, 3] = centre - R @ centre + np.array([0.0, 0.0, x[0]])
-    return M
 
 
 def _biweight(r: np.ndarray) -> np.ndarray:
