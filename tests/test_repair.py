@@ -75,7 +75,15 @@ def test_cloud_target_matches_the_true_deformed_blade(case, cloud_result):
 @pytest.mark.timeout(240)
 def test_cloud_twist_and_missing_volume(case, cloud_result):
     sd, _ = case
-    assert abs(cloud_result.deformation["twist_deg_at_tip"] - sd.twist_tip_deg) < 0.02
+    d = cloud_result.deformation
+    assert abs(d["twist_deg_at_tip"] - sd.twist_tip_deg) < 0.02
+    c = np.array(d["centre_mm"])
+    for row in d["per_section"]:            # the twist axis point's move, against the generator's law
+        h = sd.blade.h_of_z(row["z_mm"])
+        a = np.radians(sd.twist_deg(h))
+        move = np.array([[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]]) @ c - c + sd.shift_mm(h)
+        assert np.hypot(*(np.array(row["shift_mm"]) - move)) < 0.005
+        assert abs(row["twist_deg"] - sd.twist_deg(h)) < 0.02
     truth = true_missing_volume(sd)["total_mm3"]
     assert abs(cloud_result.volume_mm3 - truth) < 0.03 * truth
     kinds = {r["kind"] for r in cloud_result.regions}

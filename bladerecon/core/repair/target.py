@@ -190,9 +190,16 @@ def repair_target(points: np.ndarray, nominal: BSplineSurface, sign: float = 1.0
     zs = np.linspace(z_lo, z_hi, 11)
     vals = fld.values(zs)
     rel = vals - fld.values([z_lo])
+    # the bend in the measured frame: how the twist axis point of each height moves under
+    # the whole map (field, then the registration undone), relative to the hub's move; the
+    # registration's tilt and the field's linear bend cancel here (they do not in d(z))
+    axis_pts = np.column_stack([np.full_like(zs, fld.centre[0]), np.full_like(zs, fld.centre[1]), zs])
+    moved = apply_transform(fld.apply(axis_pts), inv) - axis_pts
+    rel[:, :2] = moved[:, :2] - moved[:1, :2]
     deformation = {
         "twist_deg_at_tip": float(np.degrees(rel[-1, 2])),
         "max_bend_mm": float(np.max(np.hypot(rel[:, 0], rel[:, 1]))),
+        "bend_frame": "measured frame, the twist axis point of each height relative to the hub's",
         "per_section": [{"z_mm": float(z), "shift_mm": [float(a), float(b)], "twist_deg": float(np.degrees(t))}
                         for z, (a, b, t) in zip(zs, rel)],
         "stiffness_edf": fld.edf, "noise_mm": fit["noise_mm"],
