@@ -131,6 +131,16 @@ def test_too_much_damage_is_refused(case):
         repair_target(P, nom, 1.0, max_damage_share=0.01)
 
 
+def test_nominal_without_a_closed_blade_face_is_refused():
+    from fc_fixtures import require_freecad
+    _, Part = require_freecad()
+    from bladerecon.fc.deviation import Nominal
+    from bladerecon.fc.repair import _blade_face
+
+    with pytest.raises(BladeReconError, match="no untrimmed B-spline face"):
+        _blade_face(Nominal(Part.makeBox(50, 5, 100)), "box")
+
+
 def _cli(*args, cwd):
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     return subprocess.run([sys.executable, "-m", "bladerecon", "repair", *map(str, args)], capture_output=True,

@@ -35,6 +35,7 @@ import sys
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
+from scipy.integrate import trapezoid
 
 from bladerecon.samples.blade import SampleBlade, t_at_length_fraction
 
@@ -200,9 +201,9 @@ def true_missing_volume(sd: ServiceDamage, step_mm: float = 0.25, n_profile: int
         if hi <= lo:
             continue
         hs = np.linspace(lo, hi, int(np.ceil((hi - lo) * blade.span / step)) + 1)
-        damage += np.trapz([missing_area(h) for h in hs], hs) * blade.span
+        damage += trapezoid([missing_area(h) for h in hs], hs) * blade.span
     ht = np.linspace(cut_h, 1.0, 9)
-    tip = np.trapz([section_area(true_point(sd, np.full_like(t, h), t)) for h in ht], ht) * blade.span
+    tip = trapezoid([section_area(true_point(sd, np.full_like(t, h), t)) for h in ht], ht) * blade.span
     return {"damage_mm3": float(damage), "tip_mm3": float(tip), "total_mm3": float(damage + tip)}
 
 

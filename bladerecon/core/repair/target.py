@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from scipy import ndimage
+from scipy.integrate import trapezoid
 
 from bladerecon.core.analysis.alignment import Alignment, SurfaceProjector, apply_transform, best_fit, transform_surface
 from bladerecon.core.errors import BladeReconError
@@ -388,7 +389,7 @@ def _damage_grid(P, fit, nominal, fld, z_to_v, z_range, tol, cut_height, section
         areas = [_section_area(nominal, v) for v in vt]
         perim = float(ds.sum(axis=1).mean())
         regions.append({"kind": "tip", "area_mm2": perim * tip_span, "max_depth_mm": float(tip_span),
-                        "volume_mm3": float(np.trapz(areas, zt)),
+                        "volume_mm3": float(trapezoid(areas, zt)),
                         "span_range_mm": [float(cut), float(z_hi)], "chord_range": [0.0, 1.0]})
         total_area += perim * tip_span
     damaged_area = float(sum(r["area_mm2"] for r in regions))
