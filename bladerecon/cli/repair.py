@@ -33,7 +33,8 @@ def add_parser(sub) -> None:
     d.add_argument("--cut-height", type=finite(unit="mm"), metavar="Z",
                    help="everything above the span height Z (mm, nominal frame) is rebuilt (a tip repair)")
     d.add_argument("--blend", type=positive(), metavar="MM",
-                   help="transition band width (mm); recorded only: the target is one surface (see docs/repair.md)")
+                   help="width (mm) of the band over which the target passes from the adapted nominal to the "
+                        "measured surface (default: 10x the deepest damage, 2 to 8 mm)")
     d.add_argument("--max-damage", type=positive(100.0, "%"), default=40.0, metavar="PCT",
                    help="refuse when more than PCT %% of the blade's area is damaged (default 40)")
     d.add_argument("--report", metavar="DIR",

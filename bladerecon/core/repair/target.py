@@ -14,9 +14,8 @@ surface, u around the section (periodic), v along the span.
    (periodic in u) are classified by their chord position; the rows above the highest
    measured point (or above ``cut_height``) are the ``tip`` region.
 4. **Target**: the adapted nominal, made by moving the nominal's poles with the field (a
-   smooth field moves a B-spline's poles as its points to ~0.1 µm here). Where the blade is
-   undamaged the measured points lie within the noise of it, so the adapted nominal *is*
-   the measured surface there; no measured correction is blended in yet (see docs/repair.md).
+   smooth field moves a B-spline's poles as its points to ~0.1 µm here), plus the measured
+   correction blended in outside the damage (:mod:`bladerecon.core.repair.blend`).
 5. **Missing volume**: per region, sum over its cells (dilated by one cell, so the shallow
    rim counts) of ``(delta - kappa delta²/2) ds dz``, the exact area between a profile and a
    curve at normal depth ``delta`` (``kappa`` the profile's curvature), and for the tip the
