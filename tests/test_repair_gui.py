@@ -28,7 +28,9 @@ with part("repair"):
     result["repair"] = {"count": len(an), "status": an[0].Status if an else None,
                         "twist": an[0].TwistDegAtTip if an else None, "solids": len(an[0].Shape.Solids) if an else 0,
                         "undo": list(doc.UndoNames), "nominal_visible": nominal.ViewObject.Visibility,
-                        "report": rep.new()}
+                        "report": rep.new(),
+                        "coloured_points": an[0].ViewObject.Proxy.colours() if an else 0,
+                        "measured_points": len(points.Points)}
 
 result["report_view"] = report_view()
 with open(os.path.join(OUT, "result.json"), "w") as f:
@@ -54,4 +56,5 @@ def test_repair_command_in_the_workbench(tmp_path):
     assert r["solids"] == 2                       # the target and the tip's missing material
     assert r["undo"][:1] == ["Repair target"]
     assert not r["nominal_visible"]
+    assert r["coloured_points"] == r["measured_points"]      # the points coloured by missing depth
     assert "Traceback" not in result["report_view"]

@@ -12,7 +12,7 @@ from typing import Any
 
 import FreeCADGui
 
-from bladerecon.gui import actions, commands
+from bladerecon.gui import actions, commands, repair_view  # noqa: F401  (repair_view: registers the view)
 
 __all__ = ["RepairCommand", "repair_into_document", "COMMAND_NAME"]
 
