@@ -205,5 +205,14 @@ def test_repair_analysis_document_object(tmp_path):
         assert len(obj.PointDepth) == len(measured.Points)
         export_target_step(obj, str(tmp_path / "target.step"))
         assert (tmp_path / "target.step").stat().st_size > 1000
+        volume, n_regions = obj.VolumeMm3, len(obj.Regions)
+        doc.saveAs(str(tmp_path / "repair.FCStd"))
+    finally:
+        FreeCAD.closeDocument(doc.Name)
+    doc = FreeCAD.openDocument(str(tmp_path / "repair.FCStd"))      # saved files keep it all
+    try:
+        again = [o for o in doc.Objects if getattr(getattr(o, "Proxy", None), "Type", "") == "RepairAnalysis"][0]
+        assert again.VolumeMm3 == volume and len(again.Regions) == n_regions
+        assert not again.TargetShape.isNull() and again.Measured is not None
     finally:
         FreeCAD.closeDocument(doc.Name)
