@@ -157,7 +157,7 @@ def test_cli_json_step_and_bad_input(tmp_path):
     secs = damaged_sections(sd, n_sections=15, n_points=400, noise=NOISE)
     write_points_csv(tmp_path / "m.csv", np.concatenate(secs), np.repeat(np.arange(15), [len(s) for s in secs]))
     nominal = ROOT / "resources" / "sample" / "nominal.step"
-    r = _cli("m.csv", "--nominal", nominal, "-o", "t.step", "--json", "--quiet", cwd=tmp_path)
+    r = _cli("m.csv", "--nominal", nominal, "-o", "t.step", "--report", "rep", "--json", "--quiet", cwd=tmp_path)
     assert r.returncode == 0, r.stderr
     s = json.loads(r.stdout)
     assert abs(s["deformation"]["twist_deg_at_tip"] - sd.twist_tip_deg) < 0.02
@@ -165,13 +165,18 @@ def test_cli_json_step_and_bad_input(tmp_path):
         assert key in s
     assert {"kind", "area_mm2", "max_depth_mm", "volume_mm3", "span_range_mm", "chord_range"} <= set(s["regions"][0])
     assert (tmp_path / "t.step").stat().st_size > 1000
+    for name in ("missing_map.png", "regions.csv", "missing.step", "report.html", "summary.json"):
+        assert (tmp_path / "rep" / name).stat().st_size > 100, name
+    rows = (tmp_path / "rep" / "regions.csv").read_text().splitlines()[1:]
+    assert [row.split(",")[0] for row in rows] == [reg["kind"] for reg in s["regions"]]
+    assert abs(sum(float(row.split(",")[3]) for row in rows) - s["volume_mm3"]) < 1e-3 * s["volume_mm3"]
     # bad input: one line, exit 2, nothing written
     long = ServiceDamage(blade=SampleBlade(span=130.0), tip_loss_mm=0.5)
     write_points_csv(tmp_path / "long.csv", damaged_cloud(long, n_rows=20, n_around=60), np.zeros(1200, int))
-    r = _cli("long.csv", "--nominal", nominal, "-o", "bad.step", "--report", "rep", "--quiet", cwd=tmp_path)
+    r = _cli("long.csv", "--nominal", nominal, "-o", "bad.step", "--report", "badrep", "--quiet", cwd=tmp_path)
     assert r.returncode == 2
     assert r.stderr.strip().count("\n") == 0 and "does not cover the measured span" in r.stderr
-    assert not (tmp_path / "bad.step").exists() and not (tmp_path / "rep").exists()
+    assert not (tmp_path / "bad.step").exists() and not (tmp_path / "badrep").exists()
 
 
 @pytest.mark.timeout(300)
