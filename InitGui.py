@@ -17,9 +17,10 @@ class BladeReconWorkbench(FreeCADGui.Workbench):
         self.__class__.Icon = paths.icon("BladeRecon")
 
     def Initialize(self):
-        from bladerecon.gui import acquire_command, commands, tspline_command  # importing registers the commands
+        from bladerecon.gui import acquire_command, commands, repair_command, tspline_command  # importing registers
 
-        names = list(commands.COMMANDS) + [acquire_command.COMMAND_NAME, tspline_command.COMMAND_NAME]
+        names = list(commands.COMMANDS) + [acquire_command.COMMAND_NAME, tspline_command.COMMAND_NAME,
+                                           repair_command.COMMAND_NAME]
         self.appendToolbar("BladeRecon", names)
         self.appendMenu("BladeRecon", names)
 

@@ -40,7 +40,7 @@ def build_parser() -> argparse.ArgumentParser:
 # ``set_defaults(run=function_returning_summary_dict)``; main() prints the summary with --json.
 COMMAND_MODULES: tuple[str, ...] = ("bladerecon.cli.reconstruct", "bladerecon.cli.deviation", "bladerecon.cli.sections",
                                     "bladerecon.cli.plan", "bladerecon.cli.tspline", "bladerecon.cli.acquire",
-                                    "bladerecon.cli.batch", "bladerecon.cli.blisk")
+                                    "bladerecon.cli.batch", "bladerecon.cli.blisk", "bladerecon.cli.repair")
 
 
 # The interpreter FreeCAD's Python modules are built for (Debian/Ubuntu); BLADERECON_PYTHON
@@ -94,6 +94,10 @@ def needed_modules(args: argparse.Namespace) -> list[str]:
         need.append("matplotlib")           # lot.html's trend plot
         if args.scheduler:
             need.append("distributed")      # Dask distributed (python3-distributed)
+    elif command == "repair":
+        need.append("FreeCAD")              # the nominal is a shape
+        if args.report:
+            need.append("matplotlib")
     elif command in ("acquire", "simulate-instrument"):
         if getattr(args, "port", None):     # --replay reads a journal, --link makes a pty: no pyserial
             need.append("serial")

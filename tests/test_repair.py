@@ -1,0 +1,224 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
+"""Repair target (issue 18) against the known truth of the damaged sample blade.
+
+The truth is closed form (:mod:`bladerecon.samples.damaged`): the deformed undamaged blade
+at every (h, t), the twist law, and the missing volume from polygon areas of dense true
+sections - none of it computed by the repair code. Distances to the target are the core's
+exact projection onto the target B-spline surface.
+"""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from bladerecon.core.errors import BladeReconError
+from bladerecon.core.geometry.projection import project_points_to_surface
+from bladerecon.core.repair import repair_target
+from bladerecon.samples.blade import SampleBlade, nominal_surface
+from bladerecon.samples.damaged import (ServiceDamage, damage_depth, damaged_cloud, damaged_sections,
+                                        true_missing_volume, true_point)
+
+ROOT = Path(__file__).resolve().parents[1]
+NOISE = 0.002
+
+
+@pytest.fixture(scope="module")
+def case():
+    sd = ServiceDamage()
+    return sd, nominal_surface(sd.blade)
+
+
+@pytest.fixture(scope="module")
+def cloud_result(case):
+    sd, nom = case
+    return repair_target(damaged_cloud(sd, n_rows=150, n_around=300, noise=NOISE), nom, 1.0)
+
+
+@pytest.fixture(scope="module")
+def sections_result(case):
+    sd, nom = case
+    secs = damaged_sections(sd, n_sections=25, n_points=600, noise=NOISE)
+    labels = np.repeat(np.arange(len(secs)), [len(s) for s in secs])
+    return repair_target(np.concatenate(secs), nom, 1.0, section=labels)
+
+
+def _truth_errors(sd: ServiceDamage, surface) -> tuple[np.ndarray, np.ndarray]:
+    """Distance (mm) of the true deformed blade to ``surface`` on a (h, t) grid, and the mask
+    of damaged places (damage depth > 1 µm, or above the tip cut)."""
+    h = np.linspace(0.0, 1.0, 81)
+    t = np.linspace(0.0, 1.0, 300, endpoint=False)
+    H, T = np.meshgrid(h, t, indexing="ij")
+    damaged = (damage_depth(sd, H, T) > 0.001) | (sd.blade.z_of(H) > sd.cut_z)
+    d = project_points_to_surface(surface, true_point(sd, H, T).reshape(-1, 3)).distance.reshape(H.shape)
+    return d, damaged
+
+
+@pytest.mark.timeout(240)
+def test_cloud_target_matches_the_true_deformed_blade(case, cloud_result):
+    sd, _ = case
+    d, damaged = _truth_errors(sd, cloud_result.target)
+    assert damaged.sum() > 100
+    assert d[damaged].max() < 0.02            # over the damaged regions (issue: within 0.02 mm)
+    assert d[~damaged].max() < 3 * NOISE      # elsewhere within the noise
+    blend = cloud_result.blend
+    assert blend["band_mm"] >= 2.0 and blend["max_curvature_jump"] < 0.05     # 1/mm; the TE circle is ~2 1/mm
+    naive, _ = _truth_errors(sd, cloud_result.naive)
+    assert naive[damaged].max() > 5 * d[damaged].max()   # the naive target misses by far more
+
+
+@pytest.mark.timeout(240)
+def test_cloud_twist_and_missing_volume(case, cloud_result):
+    sd, _ = case
+    d = cloud_result.deformation
+    assert abs(d["twist_deg_at_tip"] - sd.twist_tip_deg) < 0.02
+    c = np.array(d["centre_mm"])
+    for row in d["per_section"]:            # the twist axis point's move, against the generator's law
+        h = sd.blade.h_of_z(row["z_mm"])
+        a = np.radians(sd.twist_deg(h))
+        move = np.array([[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]]) @ c - c + sd.shift_mm(h)
+        assert np.hypot(*(np.array(row["shift_mm"]) - move)) < 0.005
+        assert abs(row["twist_deg"] - sd.twist_deg(h)) < 0.02
+    truth = true_missing_volume(sd)["total_mm3"]
+    assert abs(cloud_result.volume_mm3 - truth) < 0.03 * truth
+    kinds = {r["kind"] for r in cloud_result.regions}
+    assert {"tip", "leading_edge", "trailing_edge"} <= kinds
+    tip = [r for r in cloud_result.regions if r["kind"] == "tip"][0]
+    assert abs(tip["span_range_mm"][0] - sd.cut_z) < 0.1
+    le = [r for r in cloud_result.regions if r["kind"] == "leading_edge"]
+    assert abs(max(r["max_depth_mm"] for r in le) - sd.le_erosion_depth_mm) < 0.02
+
+
+@pytest.mark.timeout(240)
+def test_sections_twist_and_target(case, sections_result):
+    sd, _ = case
+    assert sections_result.mode == "sections"
+    assert abs(sections_result.deformation["twist_deg_at_tip"] - sd.twist_tip_deg) < 0.02
+    d, damaged = _truth_errors(sd, sections_result.target)
+    assert d[damaged].max() < 0.02
+    assert sections_result.target_vs_measured["rms"] < 2 * NOISE
+
+
+def test_no_undamaged_area_is_refused(case):
+    sd, nom = case
+    H, T = np.meshgrid(np.linspace(0.0, 1.0, 40), np.linspace(0.0, 1.0, 120, endpoint=False), indexing="ij")
+    n = sd.blade.normal(H, T)[..., :2]
+    P = sd.blade.point(H, T)
+    P[..., :2] -= 0.1 * n / np.linalg.norm(n, axis=-1, keepdims=True)   # everything worn 0.1 mm
+    P = P.reshape(-1, 3)
+    with pytest.raises(BladeReconError, match="no undamaged area left"):
+        repair_target(P, nom, 1.0)
+
+
+def test_nominal_not_covering_the_span_is_refused(case):
+    _, nom = case
+    long = ServiceDamage(blade=SampleBlade(span=130.0), tip_loss_mm=0.5)
+    P = damaged_cloud(long, n_rows=40, n_around=120, noise=NOISE)
+    with pytest.raises(BladeReconError, match="does not cover the measured span"):
+        repair_target(P, nom, 1.0)
+
+
+@pytest.mark.timeout(240)
+def test_too_much_damage_is_refused(case):
+    sd, nom = case
+    P = damaged_cloud(sd, n_rows=40, n_around=120, noise=NOISE)
+    with pytest.raises(BladeReconError, match="damage over"):
+        repair_target(P, nom, 1.0, max_damage_share=0.01)
+
+
+def test_nominal_without_a_closed_blade_face_is_refused():
+    from fc_fixtures import require_freecad
+    _, Part = require_freecad()
+    from bladerecon.fc.deviation import Nominal
+    from bladerecon.fc.repair import _blade_face
+
+    with pytest.raises(BladeReconError, match="no untrimmed B-spline face"):
+        _blade_face(Nominal(Part.makeBox(50, 5, 100)), "box")
+
+
+def _cli(*args, cwd):
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    return subprocess.run([sys.executable, "-m", "bladerecon", "repair", *map(str, args)], capture_output=True,
+                          text=True, env=env, cwd=cwd, timeout=600)
+
+
+@pytest.mark.timeout(300)
+def test_cli_json_step_and_bad_input(tmp_path):
+    from fc_fixtures import require_freecad
+    require_freecad()
+    from bladerecon.core.io.readers import write_points_csv
+
+    sd = ServiceDamage()
+    secs = damaged_sections(sd, n_sections=15, n_points=400, noise=NOISE)
+    write_points_csv(tmp_path / "m.csv", np.concatenate(secs), np.repeat(np.arange(15), [len(s) for s in secs]))
+    nominal = ROOT / "resources" / "sample" / "nominal.step"
+    r = _cli("m.csv", "--nominal", nominal, "-o", "t.step", "--report", "rep", "--json", "--quiet", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    s = json.loads(r.stdout)
+    assert abs(s["deformation"]["twist_deg_at_tip"] - sd.twist_tip_deg) < 0.02
+    for key in ("regions", "volume_mm3", "target_vs_measured", "blend", "seconds"):
+        assert key in s
+    assert {"kind", "area_mm2", "max_depth_mm", "volume_mm3", "span_range_mm", "chord_range"} <= set(s["regions"][0])
+    assert (tmp_path / "t.step").stat().st_size > 1000
+    for name in ("missing_map.png", "regions.csv", "missing.step", "report.html", "summary.json"):
+        assert (tmp_path / "rep" / name).stat().st_size > 100, name
+    rows = (tmp_path / "rep" / "regions.csv").read_text().splitlines()[1:]
+    assert [row.split(",")[0] for row in rows] == [reg["kind"] for reg in s["regions"]]
+    assert abs(sum(float(row.split(",")[3]) for row in rows) - s["volume_mm3"]) < 1e-3 * s["volume_mm3"]
+    # bad input: one line, exit 2, nothing written
+    long = ServiceDamage(blade=SampleBlade(span=130.0), tip_loss_mm=0.5)
+    write_points_csv(tmp_path / "long.csv", damaged_cloud(long, n_rows=20, n_around=60), np.zeros(1200, int))
+    r = _cli("long.csv", "--nominal", nominal, "-o", "bad.step", "--report", "badrep", "--quiet", cwd=tmp_path)
+    assert r.returncode == 2
+    assert r.stderr.strip().count("\n") == 0 and "does not cover the measured span" in r.stderr
+    assert not (tmp_path / "bad.step").exists() and not (tmp_path / "badrep").exists()
+
+
+@pytest.mark.timeout(300)
+def test_repair_analysis_document_object(tmp_path):
+    from fc_fixtures import require_freecad
+    FreeCAD, _ = require_freecad()
+    from bladerecon.core.io.readers import write_points_csv
+    from bladerecon.fc.export import read_shape
+    from bladerecon.fc.objects import make_measured_points
+    from bladerecon.fc.repair import export_target_step, make_repair_analysis
+
+    sd = ServiceDamage()
+    secs = damaged_sections(sd, n_sections=15, n_points=400, noise=NOISE)
+    write_points_csv(tmp_path / "m.csv", np.concatenate(secs), np.repeat(np.arange(15), [len(s) for s in secs]))
+    doc = FreeCAD.newDocument("RepairTest")
+    try:
+        measured = make_measured_points(doc, str(tmp_path / "m.csv"))
+        nominal = doc.addObject("Part::Feature", "Nominal")
+        nominal.Shape = read_shape(str(ROOT / "resources" / "sample" / "nominal.step"))
+        obj = make_repair_analysis(doc, measured, nominal)
+        doc.recompute()
+        assert obj.Status == "ok", obj.Status
+        assert abs(obj.TwistDegAtTip - sd.twist_tip_deg) < 0.02
+        assert obj.TargetShape.isValid() and obj.TargetShape.Solids
+        # the tip's missing solid holds the tip region's volume: measured on its mesh (OCC's
+        # GProp volume of these capped B-spline solids is off by % here, see docs/repair.md)
+        import MeshPart
+        tip = [json.loads(r) for r in obj.Regions if json.loads(r)["kind"] == "tip"][0]
+        assert obj.MissingShape.isValid() and obj.MissingShape.Solids
+        mesh = MeshPart.meshFromShape(Shape=obj.MissingShape, LinearDeflection=0.005, AngularDeflection=0.05)
+        assert abs(mesh.Volume - tip["volume_mm3"]) < 0.01 * tip["volume_mm3"]
+        assert len(obj.PointDepth) == len(measured.Points)
+        export_target_step(obj, str(tmp_path / "target.step"))
+        assert (tmp_path / "target.step").stat().st_size > 1000
+        volume, n_regions = obj.VolumeMm3, len(obj.Regions)
+        doc.saveAs(str(tmp_path / "repair.FCStd"))
+    finally:
+        FreeCAD.closeDocument(doc.Name)
+    doc = FreeCAD.openDocument(str(tmp_path / "repair.FCStd"))      # saved files keep it all
+    try:
+        again = [o for o in doc.Objects if getattr(getattr(o, "Proxy", None), "Type", "") == "RepairAnalysis"][0]
+        assert again.VolumeMm3 == volume and len(again.Regions) == n_regions
+        assert not again.TargetShape.isNull() and again.Measured is not None
+    finally:
+        FreeCAD.closeDocument(doc.Name)
