@@ -222,3 +222,32 @@ def test_repair_analysis_document_object(tmp_path):
         assert not again.TargetShape.isNull() and again.Measured is not None
     finally:
         FreeCAD.closeDocument(doc.Name)
+
+
+@pytest.mark.timeout(400)
+def test_cli_cut_height_blend_and_max_damage(tmp_path):
+    """--cut-height Z: everything above Z is rebuilt (a tip region reaching down to Z, more
+    volume than without the cut); --blend sets the band width the JSON reports; --max-damage
+    below the damaged share refuses in one line with nothing written."""
+    from fc_fixtures import require_freecad
+    require_freecad()
+    from bladerecon.core.io.readers import write_points_csv
+
+    sd = ServiceDamage()
+    cloud = damaged_cloud(sd, n_rows=60, n_around=160, noise=NOISE)
+    write_points_csv(tmp_path / "c.csv", cloud, np.zeros(len(cloud), int))
+    nominal = ROOT / "resources" / "sample" / "nominal.step"
+    plain = _cli("c.csv", "--nominal", nominal, "--json", "--quiet", cwd=tmp_path)
+    assert plain.returncode == 0, plain.stderr
+    top = float(cloud[:, 2].max())
+    cut = top - 6.0
+    r = _cli("c.csv", "--nominal", nominal, "--cut-height", cut, "--blend", 3.5, "--json", "--quiet", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    s, p = json.loads(r.stdout), json.loads(plain.stdout)
+    assert s["blend"]["band_mm"] == 3.5 and p["blend"]["band_mm"] != 3.5
+    tips = [reg for reg in s["regions"] if reg["kind"] == "tip"]
+    assert tips and min(reg["span_range_mm"][0] for reg in tips) <= cut + 0.5
+    assert s["volume_mm3"] > p["volume_mm3"]
+    r = _cli("c.csv", "--nominal", nominal, "--max-damage", 0.5, "-o", "x.step", "--quiet", cwd=tmp_path)
+    assert r.returncode == 2 and "damage over" in r.stderr and r.stderr.strip().count("\n") == 0
+    assert not (tmp_path / "x.step").exists()
