@@ -19,12 +19,15 @@ import numpy as np
 
 from bladerecon.core.errors import BladeReconError
 
-__all__ = ["add_options", "read_input", "is_auto", "pole_cap_note"]
+__all__ = ["add_options", "read_input", "is_auto", "build", "pole_cap_note"]
 
 #: the method of the automatic cloud path when --method is left at auto: the slabs' points lie
 #: on the blade after sliding, spaced unevenly; the core's smoothing choice misjudges them
 #: (measured in docs/blades.md: 0.47 mm against 0.14 mm for interpolate on the propeller)
 AUTO_CLOUD_METHOD = "interpolate"
+#: a planar cut whose loop jumps by more than this x its median point spacing is an open curve
+#: (airfoils of the test blades: at most 16x; planes through a radial rotor: 15-60x)
+OPEN_GAP_RATIO = 20.0
 
 
 def add_options(r: argparse.ArgumentParser) -> None:
@@ -36,6 +39,12 @@ def add_options(r: argparse.ArgumentParser) -> None:
                    help="span direction hub -> tip (default: found from the cloud)")
     g.add_argument("--sections", type=int, metavar="N",
                    help="number of sections cut from the cloud (default: from its density, 6 to 21)")
+    g.add_argument("--blade-kind", choices=("auto", "axial", "radial"), default="auto",
+                   help="axial: planes across the span; radial: stream surfaces between hub and shroud "
+                        "(radial and mixed-flow rotors); auto (default): radial when planes cut the blade "
+                        "into open curves")
+    g.add_argument("--rotor-axis", choices=("x", "y", "z"), default="z",
+                   help="with radial blades: the rotor axis through the origin (default z)")
 
 
 def _span_range(text: str) -> tuple[float, float]:
@@ -50,7 +59,17 @@ def _span_range(text: str) -> tuple[float, float]:
 
 def is_auto(args: argparse.Namespace) -> bool:
     """True once :func:`read_input` has taken the whole-cloud path."""
-    return bool(getattr(args, "_auto_cloud", False))
+    return getattr(args, "_auto_cloud", None) is not None
+
+
+def build(args: argparse.Namespace, pointset, build_sections):
+    """The ordered sections: stream-surface sections as cut (their projection on one plane may
+    cross itself), anything else through ``build_sections``."""
+    cs = getattr(args, "_auto_cloud", None)
+    if cs is not None and cs.info.get("kind") == "stream-surfaces":
+        return cs.section_set(args._cloud_lines, args.input)
+    return build_sections(pointset)
+
 
 
 def read_input(args: argparse.Namespace):
@@ -61,6 +80,8 @@ def read_input(args: argparse.Namespace):
     from bladerecon.core.io.readers import read_points
 
     own = [o for o in ("span_range", "span_axis", "sections") if getattr(args, o, None) is not None]
+    if getattr(args, "blade_kind", "auto") != "auto":
+        own.append("blade_kind")
     if realdata.slicing_requested(args):
         if own:
             raise BladeReconError(f"--{own[0].replace('_', '-')} applies to a cloud sliced automatically: "
@@ -74,6 +95,7 @@ def read_input(args: argparse.Namespace):
                                   f"{args.input} holds {len(ps.section_names)} sections")
         return realdata.read_input(args)
     from bladerecon.core.sections.cloud import auto_sections
+    from bladerecon.core.sections.meridional import meridional_sections
 
     if args.sections is not None and not 2 <= args.sections <= 200:
         raise BladeReconError(f"--sections {args.sections}: give 2 to 200")
@@ -82,15 +104,39 @@ def read_input(args: argparse.Namespace):
         axis = np.eye(3)["xyz".index(args.span_axis[-1])] * (-1.0 if args.span_axis.startswith("-") else 1.0)
     P, lines = realdata._read_cloud(args.input, args.cloud_scale)
     rng = _span_range(args.span_range) if args.span_range is not None else None
-    cs = auto_sections(P, span_range=rng, n_sections=args.sections, axis=axis)
-    args._auto_cloud = True
+    rotor = np.eye(3)["xyz".index(args.rotor_axis)]
+    kind_reason = f"--blade-kind {args.blade_kind}"
+    if args.blade_kind == "radial":
+        cs = meridional_sections(P, rotor, args.sections, rng)
+    else:
+        try:
+            cs = auto_sections(P, span_range=rng, n_sections=args.sections, axis=axis)
+            planar_error = None
+        except BladeReconError as err:
+            if args.blade_kind == "axial":
+                raise
+            cs, planar_error = None, str(err)
+        gap = float(np.median(cs.info["largest_gap_ratio"])) if cs is not None else np.inf
+        if args.blade_kind == "auto":
+            if gap > OPEN_GAP_RATIO:
+                why = (f"planes across the span failed ({planar_error})" if cs is None else
+                       f"planes cut it into open curves (largest gap along a section {gap:.0f}x the median "
+                       f"spacing, over {OPEN_GAP_RATIO:g})")
+                cs = meridional_sections(P, rotor, args.sections, rng)
+                kind_reason = f"radial: {why}; stream surfaces about {args.rotor_axis} between hub and shroud"
+            else:
+                kind_reason = (f"axial: planes across the span cut closed airfoils (largest gap along a section "
+                               f"{gap:.0f}x the median spacing, at most {OPEN_GAP_RATIO:g})")
+    args._auto_cloud = cs
     info = dict(cs.info)
+    info["kind_reason"] = kind_reason
     info["cloud_scale"] = args.cloud_scale
     if args.method == "auto":
         args.method = AUTO_CLOUD_METHOD
         info["method_reason"] = ("whole-cloud input with --method auto: the slid slab points are "
                                  f"fitted with '{AUTO_CLOUD_METHOD}' (the core's smoothing choice misjudges "
                                  "uneven cloud spacing; see docs/blades.md)")
+    args._cloud_lines = lines
     return cs.pointset(lines, args.input), info
 
 

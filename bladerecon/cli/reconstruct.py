@@ -101,7 +101,7 @@ def _reconstruct(args: argparse.Namespace, say, step: str | None, report: str | 
     say(f"reading {args.input}")
     from bladerecon.cli import autocloud
     pointset, slicing = autocloud.read_input(args)
-    sections = build_sections(pointset)
+    sections = autocloud.build(args, pointset, build_sections)
     t_read = time.perf_counter()
     n_reordered = sum(s.reordered for s in sections.sections)
     say(f"{len(pointset.points)} points in {len(sections.sections)} sections"

@@ -62,6 +62,25 @@ class CloudSections:
         names = tuple(f"plane@{p:.3f}" for p in self.positions)
         return PointSet(pts, sec, np.asarray(lines)[np.concatenate(self.rows)], names, source, "cloud-auto")
 
+    def section_set(self, lines: np.ndarray, source: str):
+        """The sections as a :class:`~bladerecon.core.sections.ordering.SectionSet` in their
+        own order, each turned so that its vector area points along the span (first -> last
+        centroid): for sections on curved stream surfaces, whose projection on one plane may
+        cross itself, this replaces ``build_sections``."""
+        from bladerecon.core.sections.ordering import Section, SectionSet
+
+        cent = np.array([p.mean(axis=0) for p in self.sections])
+        span = cent[-1] - cent[0]
+        span /= np.linalg.norm(span)
+        out = []
+        for k, (p, r) in enumerate(zip(self.sections, self.rows)):
+            area = 0.5 * np.cross(p - cent[k], np.roll(p, -1, axis=0) - cent[k]).sum(axis=0)
+            if area @ span < 0:
+                p, r = np.concatenate([p[:1], p[:0:-1]]), np.concatenate([r[:1], r[:0:-1]])
+            name = f"{self.info.get('kind', 'section')}@{self.positions[k]:.3f}"
+            out.append(Section(index=k, name=name, points=np.array(p), lines=np.asarray(lines)[r], reordered=True))
+        return SectionSet(sections=tuple(out), span_axis=span, source=source)
+
 
 # ------------------------------------------------------------------ span direction
 def _slab_diameter(Q: np.ndarray, a: np.ndarray) -> float:
@@ -76,23 +95,20 @@ def span_direction(P: np.ndarray) -> tuple[np.ndarray, str]:
     P = np.asarray(P, float)
     c = P - P.mean(axis=0)
     axes = np.linalg.svd(c[:: max(1, len(c) // 20000)], full_matrices=False)[2]
-    best, scores = None, []
-    for a in axes:
+    def score(a: np.ndarray) -> float:
         h = c @ a
         lo, hi = np.percentile(h, [1, 99])
         w = 0.02 * (hi - lo)
-        diam = []
-        for f in np.linspace(0.2, 0.8, 7):
-            m = np.abs(h - (lo + f * (hi - lo))) <= 0.5 * w
-            if m.sum() >= 10:
-                diam.append(_slab_diameter(c[m], a))
-        score = (hi - lo) / np.median(diam) if diam else 0.0
-        scores.append(score)
-        if best is None or score > best[0]:
-            best = (score, a)
-    a = best[1].copy()
+        diam = [_slab_diameter(c[m], a) for f in np.linspace(0.2, 0.8, 7)
+                if (m := np.abs(h - (lo + f * (hi - lo))) <= 0.5 * w).sum() >= 10]
+        return (hi - lo) / float(np.median(diam)) if diam else 0.0
+
+    scores = [score(a) for a in axes]
+    a = axes[int(np.argmax(scores))].copy()
     k = int(np.argmax(np.abs(a)))
-    snapped = np.degrees(np.arccos(min(1.0, abs(a[k])))) < _SNAP_DEG
+    # a swept or leaning blade tilts the principal axis: a coordinate axis that cuts nearly
+    # as well is the user's frame, and gives sections at round heights
+    snapped = np.degrees(np.arccos(min(1.0, abs(a[k])))) < _SNAP_DEG or score(np.eye(3)[k]) >= 0.9 * max(scores)
     if snapped:
         a = np.sign(a[k]) * np.eye(3)[k]
     h = c @ a
@@ -110,7 +126,7 @@ def span_direction(P: np.ndarray) -> tuple[np.ndarray, str]:
     name = "xyz"[k] if snapped else "({:.4f}, {:.4f}, {:.4f})".format(*a)
     reason = (f"principal axis with slabs {max(scores):.1f}x smaller than the extent along it "
               f"(others {sorted(scores)[-2]:.1f}x, {sorted(scores)[0]:.1f}x)"
-              + (f", within {_SNAP_DEG:g}° of {name}" if snapped else ""))
+              + (f", taken as {name} (within {_SNAP_DEG:g}° or cutting at least 90 % as well)" if snapped else ""))
     return a, reason
 
 
@@ -170,7 +186,7 @@ def airfoil_span(P: np.ndarray, axis: np.ndarray, n_probe: int = 80) -> tuple[fl
 
 
 # ------------------------------------------------------------------ one slab
-def _slide_to_plane(q: np.ndarray, delta: np.ndarray, half_window: int = 8) -> np.ndarray:
+def _slide_to_plane(q: np.ndarray, delta: np.ndarray, half_window: int = 3) -> np.ndarray:
     """Loop points ``q`` (2D, projected along the axis, in loop order) of heights ``delta``
     (mm off the plane) moved onto the section in the plane: in a window of neighbours along
     the loop, ``y = a + b x + c x² + v δ`` (x along the local chord, y across) is fitted by
@@ -254,8 +270,12 @@ def order_slab(q: np.ndarray, where: str, link: float = 6.0, second_share: float
     if hit is not None:
         raise BladeReconError(f"{where}: its {len(keep)} points could not be put in a loop that does not "
                               "cross itself: give --span-range to leave this part of the blade out")
+    loop = q[keep][order]
+    steps = np.linalg.norm(loop - np.roll(loop, -1, axis=0), axis=1)
     return keep[order], np.flatnonzero(lab != big), {"thickness_mm": thick, "pieces_merged": merged,
-                                                     "spacing_mm": spacing}
+                                                     "spacing_mm": spacing,
+                                                     "largest_gap_mm": float(steps.max()),
+                                                     "gap_ratio": float(steps.max() / np.median(steps))}
 
 
 def _thin(order: np.ndarray, q: np.ndarray, most: int) -> np.ndarray:
@@ -324,7 +344,7 @@ def auto_sections(P: np.ndarray, span_range: tuple[float, float] | None = None, 
                  "sections_reason": f"{SLAB_POINTS} points a slab from the density ({n_in} points over "
                                     f"{length:.2f} mm); sections cover at most a quarter of the span "
                                     "(6 to 21)"})
-    sections, rows, counts, dropped, merged, thick = [], [], [], [], 0, []
+    sections, rows, counts, dropped, merged, thick, gaps = [], [], [], [], 0, [], []
     for z in pos:
         m = np.flatnonzero(np.abs(h - z) <= 0.5 * slab)
         where = f"slice at {z:.3f} mm"
@@ -348,6 +368,8 @@ def auto_sections(P: np.ndarray, span_range: tuple[float, float] | None = None, 
         dropped.append(int(len(out)))
         merged += sinfo["pieces_merged"]
         thick.append(sinfo["thickness_mm"])
+        gaps.append(sinfo["gap_ratio"])
     info.update({"slab_points": counts, "outliers_dropped": dropped, "pieces_merged": int(merged),
-                 "thickness_mm": [float(t) for t in thick], "moved_onto_plane": "along the surface"})
+                 "thickness_mm": [float(t) for t in thick], "moved_onto_plane": "along the surface",
+                 "largest_gap_ratio": [float(g) for g in gaps]})
     return CloudSections(sections, rows, axis, pos, info)
