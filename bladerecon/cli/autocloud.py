@@ -25,9 +25,6 @@ __all__ = ["add_options", "read_input", "is_auto", "build", "pole_cap_note"]
 #: on the blade after sliding, spaced unevenly; the core's smoothing choice misjudges them
 #: (measured in docs/blades.md: 0.47 mm against 0.14 mm for interpolate on the propeller)
 AUTO_CLOUD_METHOD = "interpolate"
-#: a planar cut whose loop jumps by more than this x its median point spacing is an open curve
-#: (airfoils of the test blades: at most 16x; planes through a radial rotor: 15-60x)
-OPEN_GAP_RATIO = 20.0
 
 
 def add_options(r: argparse.ArgumentParser) -> None:
@@ -71,7 +68,6 @@ def build(args: argparse.Namespace, pointset, build_sections):
     return build_sections(pointset)
 
 
-
 def read_input(args: argparse.Namespace):
     """The input as ``(PointSet, slicing summary or None)``: a structured file as before, the
     ``--slice*`` options as before, a cloud with neither through the automatic slicing."""
@@ -94,8 +90,7 @@ def read_input(args: argparse.Namespace):
             raise BladeReconError(f"--{own[0].replace('_', '-')} applies to an unordered cloud; "
                                   f"{args.input} holds {len(ps.section_names)} sections")
         return realdata.read_input(args)
-    from bladerecon.core.sections.cloud import auto_sections
-    from bladerecon.core.sections.meridional import meridional_sections
+    from bladerecon.core.sections.blade_cloud import cut_sections
 
     if args.sections is not None and not 2 <= args.sections <= 200:
         raise BladeReconError(f"--sections {args.sections}: give 2 to 200")
@@ -105,31 +100,9 @@ def read_input(args: argparse.Namespace):
     P, lines = realdata._read_cloud(args.input, args.cloud_scale)
     rng = _span_range(args.span_range) if args.span_range is not None else None
     rotor = np.eye(3)["xyz".index(args.rotor_axis)]
-    kind_reason = f"--blade-kind {args.blade_kind}"
-    if args.blade_kind == "radial":
-        cs = meridional_sections(P, rotor, args.sections, rng)
-    else:
-        try:
-            cs = auto_sections(P, span_range=rng, n_sections=args.sections, axis=axis)
-            planar_error = None
-        except BladeReconError as err:
-            if args.blade_kind == "axial":
-                raise
-            cs, planar_error = None, str(err)
-        gap = float(np.median(cs.info["largest_gap_ratio"])) if cs is not None else np.inf
-        if args.blade_kind == "auto":
-            if gap > OPEN_GAP_RATIO:
-                why = (f"planes across the span failed ({planar_error})" if cs is None else
-                       f"planes cut it into open curves (largest gap along a section {gap:.0f}x the median "
-                       f"spacing, over {OPEN_GAP_RATIO:g})")
-                cs = meridional_sections(P, rotor, args.sections, rng)
-                kind_reason = f"radial: {why}; stream surfaces about {args.rotor_axis} between hub and shroud"
-            else:
-                kind_reason = (f"axial: planes across the span cut closed airfoils (largest gap along a section "
-                               f"{gap:.0f}x the median spacing, at most {OPEN_GAP_RATIO:g})")
+    cs = cut_sections(P, args.blade_kind, rng, args.sections, axis, rotor)
     args._auto_cloud = cs
     info = dict(cs.info)
-    info["kind_reason"] = kind_reason
     info["cloud_scale"] = args.cloud_scale
     if args.method == "auto":
         args.method = AUTO_CLOUD_METHOD

@@ -228,6 +228,29 @@ def _thickness(q: np.ndarray) -> float:
     return float(max(spans)) if spans else float(np.ptp(y))
 
 
+def _gaps(q: np.ndarray, lab: np.ndarray) -> dict:
+    """Smallest distance (mm) of every piece to the largest one."""
+    sizes = np.bincount(lab)
+    big = int(np.argmax(sizes))
+    main = cKDTree(q[lab == big])
+    return {int(k): float(main.query(q[lab == k])[0].min()) for k in np.flatnonzero(sizes) if k != big}
+
+
+def _merge_pieces(q: np.ndarray, lab: np.ndarray, reach: float) -> tuple[np.ndarray, int]:
+    """Join to the largest piece, nearest first, every piece within ``reach`` (mm) of it."""
+    lab = lab.copy()
+    merged = 0
+    while True:
+        gaps = _gaps(q, lab)
+        if not gaps:
+            return lab, merged
+        k = min(gaps, key=gaps.get)
+        if gaps[k] > reach:
+            return lab, merged
+        lab[lab == k] = int(np.argmax(np.bincount(lab)))
+        merged += 1
+
+
 def order_slab(q: np.ndarray, where: str, link: float = 6.0, second_share: float = 0.2
                ) -> tuple[np.ndarray, np.ndarray, dict]:
     """Keep and order the 2D points of one slab (mm): ``(order of kept points, rows dropped,
@@ -241,28 +264,32 @@ def order_slab(q: np.ndarray, where: str, link: float = 6.0, second_share: float
     n = len(q)
     g = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
     _, lab = connected_components(g, directed=False)
-    thick = _thickness(q)
-    merged = 0
-    while True:
-        sizes = np.bincount(lab)
-        big = int(np.argmax(sizes))
-        others = [k for k in np.flatnonzero(sizes) if k != big]
-        if not others:
-            break
-        main = cKDTree(q[lab == big])
-        gaps = {k: float(main.query(q[lab == k])[0].min()) for k in others}
-        k_near = min(gaps, key=gaps.get)
-        if gaps[k_near] > max(thick, link * spacing):
-            break
-        lab[lab == k_near] = big
-        merged += 1
+    # a thin sparse slab leaves gaps along the loop of about its perimeter / point count
+    # (perimeter ~ 2.2 x the section's diameter): pieces that close are one section; then
+    # pieces closer than the thickness of the section so joined
+    loop_step = 2.2 * float(np.linalg.norm(np.ptp(q, axis=0))) / n
+    reach = max(link * spacing, 3.0 * loop_step)
+    lab, merged = _merge_pieces(q, lab, reach)
+    # the thickness of the whole slab, at most a fifth of its size (a blade is thinner than a
+    # fifth of its chord; a second blade in the slab inflates the estimate)
+    thick = min(_thickness(q), 0.2 * float(np.linalg.norm(np.ptp(q, axis=0))))
+    reach = max(reach, thick)
+    lab, more = _merge_pieces(q, lab, reach)
+    merged += more
+    big = int(np.argmax(np.bincount(lab)))
+    rest = np.flatnonzero(lab != big)
+    if rest.size:        # what is left, joined among itself: a second blade is one large piece
+        pr = cKDTree(q[rest]).query_pairs(reach, output_type="ndarray")
+        gr = coo_matrix((np.ones(len(pr)), (pr[:, 0], pr[:, 1])), shape=(rest.size, rest.size))
+        lab[rest] = lab.max() + 1 + connected_components(gr, directed=False)[1]
+    gaps = _gaps(q, lab)
     sizes = np.bincount(lab)
-    big = int(np.argmax(sizes))
     for k in np.flatnonzero(sizes):
         if k != big and sizes[k] >= second_share * n:
             raise BladeReconError(
                 f"{where}: a second piece of {sizes[k]} points stands {gaps[k]:.3f} mm off the section "
-                f"({sizes[big]} points), farther than the blade's thickness {thick:.3f} mm: a second blade? "
+                f"({sizes[big]} points), farther than the blade's thickness {thick:.3f} mm and the spacing "
+                f"along it: a second blade? "
                 "crop the cloud to one blade or give --span-range")
     keep = np.flatnonzero(lab == big)
     order = _uncross(q[keep], _camber_order(q[keep]))
