@@ -158,3 +158,30 @@ def write_cloud(path: str, points: np.ndarray, metres: bool = True) -> None:
     scale = 1e-3 if metres else 1.0
     np.savetxt(path, np.asarray(points) * scale, fmt="%.9f" if metres else "%.6f",
                header="x y z (" + ("m" if metres else "mm") + "), unordered surface nodes")
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python3 -m bladerecon.samples.propeller BLADE OUT.xyz``: write a test blade's cloud (metres)."""
+    import argparse
+
+    p = argparse.ArgumentParser(prog="python3 -m bladerecon.samples.propeller",
+                                description="Write a test blade of issue 25 as an unordered cloud in metres.")
+    p.add_argument("blade", choices=("propeller", "fan", "radial"))
+    p.add_argument("output", help="x y z file to write (metres)")
+    p.add_argument("--noise", type=float, default=0.0, metavar="MM", help="Gaussian noise per coordinate (mm)")
+    p.add_argument("--points", type=int, default=None, help="airfoil nodes (default 30000; radial 15000)")
+    p.add_argument("--seed", type=int, default=0)
+    a = p.parse_args(argv)
+    if a.blade == "radial":
+        from bladerecon.samples.radial import radial_cloud, radial_rotor
+
+        pts = radial_cloud(radial_rotor(), a.points or 15000, a.noise, a.seed)
+    else:
+        cb = propeller_blade() if a.blade == "propeller" else fan_blade()
+        pts = blade_cloud(cb, a.points or 30000, a.noise, a.seed)[0]
+    write_cloud(a.output, pts)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
