@@ -11,7 +11,7 @@ as a CFD export: unordered, no noise; as a scan: 5 µm noise), prints and writes
 * the one command: ``reconstruct CLOUD --cloud-scale 1000`` (timed as a subprocess; its
   surface rebuilt in process by the same functions, ``cut_sections`` -> ``reconstruct``);
 * hand-tuned: the true airfoil span (0.5 mm in from each end, or span fractions 0.05-0.95),
-  21 or 31 sections, interpolate or approximate — the best of them by the true-surface max.
+  21 or 31 sections (radial: 10 or 15), interpolate or approximate — the best of them by the true-surface max.
 
 Scored against the true surface (closed form) over the reconstructed span: max and mean
 distance (mm) of dense true points to the surface, and the share of the cloud's airfoil nodes
@@ -99,7 +99,7 @@ def main() -> None:
                     "kind": summary.get("slicing", {}).get("kind"),
                     "sections": summary.get("input", {}).get("sections")})
         best = None
-        for n in (21, 31):
+        for n in ((10, 15) if radial else (21, 31)):
             for method in ("interpolate", "approximate"):
                 if radial:
                     hcs = cut_sections(P, "radial", (0.05, 0.95), n)

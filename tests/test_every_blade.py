@@ -147,3 +147,46 @@ def test_span_range_overrides(tmp_path):
     assert len(cs.sections) == 6
     with pytest.raises(BladeReconError, match="span-range"):
         cut_sections(P, "axial", span_range=(300.0, 400.0))
+
+
+def _cli(*argv):
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    return subprocess.run([sys.executable, "-m", "bladerecon", *argv], cwd=root, capture_output=True, text=True,
+                          env={"PYTHONPATH": str(root), "PATH": "/usr/bin:/bin", "HOME": str(root)})
+
+
+@pytest.mark.timeout(400)
+def test_solid_and_cropped_deviation_of_the_whole_scan(tmp_path):
+    """--solid closes the propeller (planar ends) and refuses the radial rotor in one line; the
+    deviation of the whole cloud from the result leaves the fillet and cap out, counted."""
+    pytest.importorskip("numpy")
+    cb, P, lab = _blade("propeller")
+    cloud = tmp_path / "propeller.xyz"
+    write_cloud(str(cloud), P)
+    step = tmp_path / "propeller.step"
+    run = _cli("reconstruct", str(cloud), "--cloud-scale", "1000", "-o", str(step), "--solid", "--quiet")
+    if "FreeCAD" in run.stderr and run.returncode != 0:
+        pytest.skip("FreeCAD not available")
+    assert run.returncode == 0, run.stderr
+    mm = tmp_path / "propeller_mm.xyz"
+    sub = P[::10]                                   # still holds fillet and cap nodes
+    write_cloud(str(mm), sub, metres=False)
+    whole = _cli("deviation", str(mm), "--nominal", str(step), "--json", "--quiet")
+    cropped = _cli("deviation", str(mm), "--nominal", str(step), "--crop-to-nominal", "--json", "--quiet")
+    assert whole.returncode == 0 and cropped.returncode == 0, (whole.stderr, cropped.stderr)
+    w, c = json.loads(whole.stdout), json.loads(cropped.stdout)
+    left = c["cropped"]["left_out_outside_nominal"]
+    assert left > 0 and c["points"] == len(sub) - left
+    # the fillet and cap nodes beyond the surface's ends dominate the whole cloud's maximum
+    assert c["max_abs"] < w["max_abs"]
+    radial = tmp_path / "radial.xyz"
+    write_cloud(str(radial), _blade("radial")[1])
+    run = _cli("reconstruct", str(radial), "--cloud-scale", "1000", "-o", str(tmp_path / "r.step"), "--solid",
+               "--quiet")
+    assert run.returncode == 2
+    errors = [ln for ln in run.stderr.splitlines() if "error" in ln]
+    assert len(errors) == 1 and "Traceback" not in run.stderr

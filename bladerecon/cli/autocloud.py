@@ -25,6 +25,8 @@ __all__ = ["add_options", "read_input", "is_auto", "build", "pole_cap_note"]
 #: on the blade after sliding, spaced unevenly; the core's smoothing choice misjudges them
 #: (measured in docs/blades.md: 0.47 mm against 0.14 mm for interpolate on the propeller)
 AUTO_CLOUD_METHOD = "interpolate"
+#: fewest points of a cloud sliced automatically (six sections of a few hundred points)
+MIN_CLOUD_POINTS = 2000
 
 
 def add_options(r: argparse.ArgumentParser) -> None:
@@ -98,6 +100,11 @@ def read_input(args: argparse.Namespace):
     if args.span_axis is not None:
         axis = np.eye(3)["xyz".index(args.span_axis[-1])] * (-1.0 if args.span_axis.startswith("-") else 1.0)
     P, lines = realdata._read_cloud(args.input, args.cloud_scale)
+    if len(P) < MIN_CLOUD_POINTS:
+        raise BladeReconError(
+            f"{args.input}: {len(P)} points with no section labels: too few to cut sections from automatically "
+            f"(a whole-blade cloud needs at least {MIN_CLOUD_POINTS}); label the sections (a 'section' column, or "
+            "blank lines between blocks) or cut them with --slice / --slice-at / --slice-radii")
     rng = _span_range(args.span_range) if args.span_range is not None else None
     rotor = np.eye(3)["xyz".index(args.rotor_axis)]
     cs = cut_sections(P, args.blade_kind, rng, args.sections, axis, rotor)

@@ -171,6 +171,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--noise", type=float, default=0.0, metavar="MM", help="Gaussian noise per coordinate (mm)")
     p.add_argument("--points", type=int, default=None, help="airfoil nodes (default 30000; radial 15000)")
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--mm", action="store_true", help="write millimetres instead of metres")
+    p.add_argument("--every", type=int, default=1, metavar="K", help="keep every K-th node (a lighter file)")
     a = p.parse_args(argv)
     if a.blade == "radial":
         from bladerecon.samples.radial import radial_cloud, radial_rotor
@@ -179,7 +181,7 @@ def main(argv: list[str] | None = None) -> int:
     else:
         cb = propeller_blade() if a.blade == "propeller" else fan_blade()
         pts = blade_cloud(cb, a.points or 30000, a.noise, a.seed)[0]
-    write_cloud(a.output, pts)
+    write_cloud(a.output, pts[:: max(1, a.every)], metres=not a.mm)
     return 0
 
 

@@ -55,6 +55,8 @@ class CloudSections:
     axis: np.ndarray
     positions: np.ndarray                   # plane heights along axis (mm)
     info: dict = field(repr=False)
+    unrolled: list | None = field(default=None, repr=False)   # stream surfaces: (x m', y r·θ, z s·H) mm
+    to_world: object = field(default=None, repr=False)        # maps unrolled points (n, 3) back to mm
 
     def pointset(self, lines: np.ndarray, source: str) -> PointSet:
         pts = np.concatenate(self.sections)
@@ -158,6 +160,10 @@ def airfoil_span(P: np.ndarray, axis: np.ndarray, n_probe: int = 80) -> tuple[fl
     good = area > 0
     x = (z - z.mean()) / (hi - lo)
     ok = good & (np.arange(n_probe) >= mid.start) & (np.arange(n_probe) < mid.stop)
+    if ok.sum() < 6:
+        raise BladeReconError(f"the cloud's slabs along the span axis hold too few points to find the airfoil "
+                              f"span ({int(ok.sum())} of the middle {mid.stop - mid.start} slabs have an area): "
+                              "give --span-range A:B (mm) or a denser cloud")
     coef = np.polyfit(x[ok], np.log(area[ok]), 2)
     rel = np.full(n_probe, np.inf)
     rel[good] = np.log(area[good]) - np.polyval(coef, x[good])

@@ -207,7 +207,8 @@ def meridional_sections(P: np.ndarray, axis=(0.0, 0.0, 1.0), n_sections: int | N
         n_sections = int(np.clip((s_hi - s_lo) / (4.0 * width), 5, 15))
     width = min(width, (s_hi - s_lo) / (3.0 * n_sections))
     pos = np.linspace(s_lo, s_hi, n_sections)
-    sections, rows, counts, merged = [], [], [], 0
+    sections, rows, counts, merged, flat = [], [], [], 0, []
+    height = float(np.mean(np.linalg.norm(ch.shroud - ch.hub, axis=1)))   # mean channel width, mm
     for sk in pos:
         sel = np.flatnonzero(np.abs(s - sk) <= 0.5 * width)
         where = f"stream surface at span fraction {sk:.3f}"
@@ -229,6 +230,7 @@ def meridional_sections(P: np.ndarray, axis=(0.0, 0.0, 1.0), n_sections: int | N
         th = theta0 + q2[:, 1] / ar[:, 1]
         X = np.outer(ar[:, 0], axis) + ar[:, 1:2] * (np.outer(np.cos(th), e1) + np.outer(np.sin(th), e2))
         sections.append(X)
+        flat.append(np.column_stack([q2, np.full(len(q2), sk * height)]))
         rows.append(sel[order])
         counts.append(int(len(sel)))
         merged += info["pieces_merged"]
@@ -236,4 +238,24 @@ def meridional_sections(P: np.ndarray, axis=(0.0, 0.0, 1.0), n_sections: int | N
             "span_fractions": [float(v) for v in pos], "sections": int(n_sections), "shell_span_fraction": float(width),
             "slab_points": counts, "pieces_merged": int(merged), "channel": ch.lines(),
             "points_left_out": {"hub_side": int((s < s_lo).sum()), "shroud_side": int((s > s_hi).sum())}}
-    return CloudSections(sections, rows, axis, pos, info)
+    info["unrolled_height_mm"] = height
+
+    def to_world(U: np.ndarray) -> np.ndarray:
+        """Unrolled (m' along the stream surface, r·θ, s·H) mm -> world mm."""
+        U = np.asarray(U, float)
+        sv = U[:, 2] / height
+        t = np.linspace(0.0, 1.0, 701)
+        grid_s = np.linspace(sv.min(), sv.max(), 41) if np.ptp(sv) > 0 else np.array([sv[0], sv[0] + 1e-9])
+        arcs = np.array([ch.stream_length(t, g)[0] for g in grid_s])          # (G, T) m'(tau) per s
+        w = np.interp(sv, grid_s, np.arange(len(grid_s)))
+        i0 = np.clip(np.floor(w).astype(int), 0, len(grid_s) - 2)
+        f = (w - i0)[:, None]
+        rows = (1 - f) * arcs[i0] + f * arcs[i0 + 1]                        # (n, T)
+        k = np.clip((rows < U[:, :1]).sum(axis=1), 1, len(t) - 1)
+        a0, a1 = rows[np.arange(len(U)), k - 1], rows[np.arange(len(U)), k]
+        tau = t[k - 1] + (t[k] - t[k - 1]) * (U[:, 0] - a0) / np.where(a1 > a0, a1 - a0, 1.0)
+        ar = ch.point(tau, sv)
+        th = theta0 + U[:, 1] / ar[:, 1]
+        return np.outer(ar[:, 0], axis) + ar[:, 1:2] * (np.outer(np.cos(th), e1) + np.outer(np.sin(th), e2))
+
+    return CloudSections(sections, rows, axis, pos, info, flat, to_world)
