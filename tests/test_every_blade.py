@@ -190,3 +190,19 @@ def test_solid_and_cropped_deviation_of_the_whole_scan(tmp_path):
     assert run.returncode == 2
     errors = [ln for ln in run.stderr.splitlines() if "error" in ln]
     assert len(errors) == 1 and "Traceback" not in run.stderr
+
+
+@pytest.mark.timeout(300)
+def test_node_rows_are_the_sections():
+    """Nodes on common planes (a CFD mesh's rows): the rows in the airfoil span are the sections,
+    and every airfoil node is within 0.02 mm of the surface (the issue asks 0.01 mm)."""
+    cb = propeller_blade()
+    P, lab = blade_cloud(cb, 12000, rows=21)
+    cs = cut_sections(P)
+    assert cs.info["node_rows"] and cs.info["sections"] == 21
+    lo, hi = cs.info["airfoil_span_mm"]
+    assert abs(lo - 40.0) < 1e-6 and abs(hi - 200.0) < 1e-6
+    ss = build_sections(cs.pointset(np.arange(len(P)) + 1, "rows"))
+    rec = reconstruct([s.points for s in ss.sections], ss.span_axis, method=AUTO_CLOUD_METHOD)
+    d = project_points_to_surface(rec.surface, P[lab == AIRFOIL]).distance
+    assert d.max() < 0.02, d.max()

@@ -111,16 +111,17 @@ def _edge_weighted_t(blade: SampleBlade, h: np.ndarray, rng, edge_share: float) 
 
 
 def blade_cloud(cb: CloudBlade, n_points: int = 30000, noise: float = 0.0, seed: int = 0,
-                edge_share: float = 0.1) -> tuple[np.ndarray, np.ndarray]:
+                edge_share: float = 0.1, rows: int = 0) -> tuple[np.ndarray, np.ndarray]:
     """Unordered nodes of the whole blade surface: ``(points (N, 3) mm, label (N,))``.
 
     Airfoil nodes at random span fraction and profile parameter (``edge_share`` of them on
     the round edges, as a CFD mesh clusters there); fillet and cap nodes at the same
-    density; Gaussian ``noise`` (mm, per coordinate) for a scan. Shuffled.
+    density; Gaussian ``noise`` (mm, per coordinate) for a scan. ``rows > 0``: the airfoil
+    nodes lie on that many planes across the span instead (a CFD mesh's node rows). Shuffled.
     """
     rng = np.random.default_rng(seed)
     b = cb.blade
-    h = rng.random(n_points)
+    h = rng.random(n_points) if rows <= 0 else np.repeat(np.linspace(0.0, 1.0, rows), -(-n_points // rows))[:n_points]
     parts = [b.point(h, _edge_weighted_t(b, h, rng, edge_share))]
     labels = [np.full(n_points, AIRFOIL)]
     if cb.fillet_radius > 0:

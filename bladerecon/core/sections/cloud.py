@@ -38,7 +38,7 @@ from bladerecon.core.errors import BladeReconError
 from bladerecon.core.io.readers import PointSet
 from bladerecon.core.sections.ordering import _camber_order, _first_crossing, _uncross, section_plane_frame
 
-__all__ = ["CloudSections", "auto_sections", "span_direction", "airfoil_span", "order_slab",
+__all__ = ["CloudSections", "auto_sections", "span_direction", "airfoil_span", "order_slab", "node_rows",
            "SLAB_POINTS"]
 
 SLAB_POINTS = 300            # points a section slab should hold
@@ -97,13 +97,17 @@ def span_direction(P: np.ndarray) -> tuple[np.ndarray, str]:
     P = np.asarray(P, float)
     c = P - P.mean(axis=0)
     axes = np.linalg.svd(c[:: max(1, len(c) // 20000)], full_matrices=False)[2]
+    k_near = max(30, len(c) // 60)
+
+    def near(h: np.ndarray, z: float) -> np.ndarray:
+        """The points nearest the height z (a slab that holds points even when the cloud lies in rows)."""
+        return np.argpartition(np.abs(h - z), k_near)[:k_near]
+
     def score(a: np.ndarray) -> float:
         h = c @ a
         lo, hi = np.percentile(h, [1, 99])
-        w = 0.02 * (hi - lo)
-        diam = [_slab_diameter(c[m], a) for f in np.linspace(0.2, 0.8, 7)
-                if (m := np.abs(h - (lo + f * (hi - lo))) <= 0.5 * w).sum() >= 10]
-        return (hi - lo) / float(np.median(diam)) if diam else 0.0
+        diam = [_slab_diameter(c[near(h, lo + f * (hi - lo))], a) for f in np.linspace(0.2, 0.8, 7)]
+        return (hi - lo) / float(np.median(diam))
 
     scores = [score(a) for a in axes]
     a = axes[int(np.argmax(scores))].copy()
@@ -115,10 +119,10 @@ def span_direction(P: np.ndarray) -> tuple[np.ndarray, str]:
         a = np.sign(a[k]) * np.eye(3)[k]
     h = c @ a
     lo, hi = np.percentile(h, [2, 98])
-    ends = [_slab_diameter(c[np.abs(h - z) <= 0.01 * (hi - lo)], a) for z in (lo + 0.1 * (hi - lo), hi - 0.1 * (hi - lo))]
+    ends = [_slab_diameter(c[near(h, z)], a) for z in (lo + 0.1 * (hi - lo), hi - 0.1 * (hi - lo))]
     # span direction points hub -> tip: the hub end is the one nearer the rotor axis when the
     # cloud is placed about it, else the larger end
-    r_lo, r_hi = (np.linalg.norm(P[np.abs(h - z) <= 0.01 * (hi - lo)].mean(axis=0)) for z in (lo, hi))
+    r_lo, r_hi = (np.linalg.norm(P[near(h, z)].mean(axis=0)) for z in (lo, hi))
     if abs(r_hi - r_lo) > 0.05 * (hi - lo):
         flip = r_hi < r_lo
     else:
@@ -140,22 +144,10 @@ def _hull_area(q: np.ndarray) -> float:
         return 0.0
 
 
-def airfoil_span(P: np.ndarray, axis: np.ndarray, n_probe: int = 80) -> tuple[float, float, dict]:
-    """(lo, hi) heights (mm along ``axis``) of the airfoil span and why (see module doc, 2.)."""
-    h = P @ axis
-    lo, hi = float(h.min()), float(h.max())
-    w = (hi - lo) / n_probe
-    z = lo + (np.arange(n_probe) + 0.5) * w
-    e1 = np.cross(axis, np.eye(3)[np.argmin(np.abs(axis))])
-    e1 /= np.linalg.norm(e1)
-    e2 = np.cross(axis, e1)
-    area = np.zeros(n_probe)
-    order = np.argsort(h)
-    hs = h[order]
-    for k, zk in enumerate(z):
-        i0, i1 = np.searchsorted(hs, [zk - 0.5 * w, zk + 0.5 * w])
-        q = P[order[i0:i1]]
-        area[k] = _hull_area(np.column_stack([q @ e1, q @ e2]))
+def _trend_ends(z: np.ndarray, area: np.ndarray, lo: float, hi: float) -> tuple[int, int, float]:
+    """First and last probe (indices) still on the quadratic trend of log(area) of the middle half,
+    and the limit (log area) that was used."""
+    n_probe = len(z)
     mid = slice(n_probe // 4, 3 * n_probe // 4)
     good = area > 0
     x = (z - z.mean()) / (hi - lo)
@@ -180,7 +172,26 @@ def airfoil_span(P: np.ndarray, axis: np.ndarray, n_probe: int = 80) -> tuple[fl
             k = nxt
         return k
 
-    k_lo, k_hi = walk(n_probe // 2, -1), walk(n_probe // 2, +1)
+    return walk(n_probe // 2, -1), walk(n_probe // 2, +1), float(limit)
+
+
+def airfoil_span(P: np.ndarray, axis: np.ndarray, n_probe: int = 80) -> tuple[float, float, dict]:
+    """(lo, hi) heights (mm along ``axis``) of the airfoil span and why (see module doc, 2.)."""
+    h = P @ axis
+    lo, hi = float(h.min()), float(h.max())
+    w = (hi - lo) / n_probe
+    z = lo + (np.arange(n_probe) + 0.5) * w
+    e1 = np.cross(axis, np.eye(3)[np.argmin(np.abs(axis))])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(axis, e1)
+    area = np.zeros(n_probe)
+    order = np.argsort(h)
+    hs = h[order]
+    for k, zk in enumerate(z):
+        i0, i1 = np.searchsorted(hs, [zk - 0.5 * w, zk + 0.5 * w])
+        q = P[order[i0:i1]]
+        area[k] = _hull_area(np.column_stack([q @ e1, q @ e2]))
+    k_lo, k_hi, limit = _trend_ends(z, area, lo, hi)
     # keep one probe slab off where the trend was left (the growth starts inside it)
     a_lo = z[k_lo] - 0.5 * w + (w if k_lo > 0 else 0.0)
     a_hi = z[k_hi] + 0.5 * w - (w if k_hi < n_probe - 1 else 0.0)
@@ -189,6 +200,34 @@ def airfoil_span(P: np.ndarray, axis: np.ndarray, n_probe: int = 80) -> tuple[fl
            "trimmed_at_start": bool(k_lo > 0), "trimmed_at_end": bool(k_hi < n_probe - 1),
            "cloud_range_mm": [lo, hi]}
     return a_lo, a_hi, why
+
+
+def node_rows(h: np.ndarray, tol: float = 1e-5, min_row: int = 30) -> np.ndarray | None:
+    """Heights (mm) of the rows when most nodes lie on common planes (a CFD mesh's node rows, a
+    CMM plan): groups of heights equal within ``tol`` mm holding ``min_row`` nodes or more,
+    together at least 80 % of the nodes; else None."""
+    order = np.argsort(h)
+    hs = h[order]
+    starts = np.concatenate([[0], np.flatnonzero(np.diff(hs) > tol) + 1])
+    sizes = np.diff(np.concatenate([starts, [len(hs)]]))
+    big = sizes >= min_row
+    if big.sum() < 3 or sizes[big].sum() < 0.8 * len(h):
+        return None
+    return np.array([hs[a:a + n].mean() for a, n in zip(starts[big], sizes[big])])
+
+
+def _row_span(P: np.ndarray, h: np.ndarray, axis: np.ndarray, rows: np.ndarray) -> tuple[float, float, dict]:
+    """The airfoil span from the rows themselves: each row's hull area against the trend."""
+    e1 = np.cross(axis, np.eye(3)[np.argmin(np.abs(axis))])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(axis, e1)
+    area = np.array([_hull_area(np.column_stack([P[m] @ e1, P[m] @ e2]))
+                     for m in (np.abs(h - r) <= 1e-5 for r in rows)])
+    k_lo, k_hi, _ = _trend_ends(rows, area, float(rows[0]), float(rows[-1]))
+    lo = float(rows[min(k_lo + 1, k_hi)] if k_lo > 0 else rows[0])
+    hi = float(rows[max(k_hi - 1, k_lo)] if k_hi < len(rows) - 1 else rows[-1])
+    return lo, hi, {"method": "convex-hull area of every node row against a quadratic trend of the middle half",
+                    "trimmed_at_start": bool(k_lo > 0), "trimmed_at_end": bool(k_hi < len(rows) - 1)}
 
 
 # ------------------------------------------------------------------ one slab
@@ -348,8 +387,9 @@ def auto_sections(P: np.ndarray, span_range: tuple[float, float] | None = None, 
     info["axis"] = [float(v) for v in axis]
     info["axis_reason"] = why_axis
     h = P @ axis
+    rows_h = node_rows(h)
     if span_range is None:
-        lo, hi, why = airfoil_span(P, axis)
+        lo, hi, why = airfoil_span(P, axis) if rows_h is None else _row_span(P, h, axis, rows_h)
         info["span_reason"] = why
     else:
         lo, hi = map(float, span_range)
@@ -367,16 +407,27 @@ def auto_sections(P: np.ndarray, span_range: tuple[float, float] | None = None, 
         raise BladeReconError(f"the airfoil span {lo:.3f} to {hi:.3f} mm holds {n_in} points; slicing a "
                               f"cloud needs a few thousand: give a denser cloud or a wider --span-range")
     slab = SLAB_POINTS * length / n_in
-    if n_sections is None:
-        n_sections = int(np.clip(length / (4.0 * slab), 6, 21))
-    slab = min(slab, length / (3.0 * n_sections))
-    pos = np.linspace(lo + 0.5 * slab, hi - 0.5 * slab, n_sections)
+    if rows_h is not None:
+        use = rows_h[(rows_h >= lo - 1e-9) & (rows_h <= hi + 1e-9)]
+        if n_sections is not None and n_sections < len(use):
+            use = use[np.unique(np.linspace(0, len(use) - 1, n_sections).round().astype(int))]
+        if len(use) < 2:
+            raise BladeReconError(f"the airfoil span {lo:.3f} to {hi:.3f} mm holds {len(use)} node row: "
+                                  "give a wider --span-range")
+        pos, slab, n_sections = use, 2e-5, len(use)
+        why_sections = (f"the nodes lie on {len(rows_h)} rows normal to the axis (CFD node rows or a measurement "
+                        f"plan): the {len(use)} rows in the airfoil span are the sections, as they are")
+    else:
+        if n_sections is None:
+            n_sections = int(np.clip(length / (4.0 * slab), 6, 21))
+        slab = min(slab, length / (3.0 * n_sections))
+        pos = np.linspace(lo + 0.5 * slab, hi - 0.5 * slab, n_sections)
+        why_sections = (f"{SLAB_POINTS} points a slab from the density ({n_in} points over {length:.2f} mm); "
+                        "sections cover at most a quarter of the span (6 to 21)")
     info.update({"airfoil_span_mm": [lo, hi], "points_in_span": n_in,
                  "points_left_out": {"below": int((h < lo).sum()), "above": int((h > hi).sum())},
                  "sections": int(n_sections), "slab_mm": float(slab), "positions_mm": [float(p) for p in pos],
-                 "sections_reason": f"{SLAB_POINTS} points a slab from the density ({n_in} points over "
-                                    f"{length:.2f} mm); sections cover at most a quarter of the span "
-                                    "(6 to 21)"})
+                 "node_rows": rows_h is not None, "sections_reason": why_sections})
     sections, rows, counts, dropped, merged, thick, gaps = [], [], [], [], 0, [], []
     for z in pos:
         m = np.flatnonzero(np.abs(h - z) <= 0.5 * slab)
