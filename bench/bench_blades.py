@@ -95,6 +95,9 @@ def main() -> None:
         summary = json.loads(run.stdout) if run.returncode == 0 else {}
         cs = cut_sections(P)
         one = _score(blade, P, lab, cs, _surface(cs, P, AUTO_CLOUD_METHOD), radial)
+        other = "approximate" if AUTO_CLOUD_METHOD == "interpolate" else "interpolate"
+        alt = _score(blade, P, lab, cs, _surface(cs, P, other), radial)
+        one["same_sections_other_method"] = {"method": other, **alt}
         one.update({"exit": run.returncode, "seconds": seconds,
                     "kind": summary.get("slicing", {}).get("kind"),
                     "sections": summary.get("input", {}).get("sections")})
@@ -125,13 +128,16 @@ def main() -> None:
              f"{platform.node()}, Python {platform.python_version()}",
              "",
              "| blade | points | one command: kind, sections | true max (mm) | true mean (mm) | nodes ≤ 0.1 mm | "
-             "time (s) | best hand-tuned | true max (mm) | true mean (mm) |",
-             "|---|---|---|---|---|---|---|---|---|---|"]
+             "time (s) | same sections, other method: max / mean (mm) | best hand-tuned | true max (mm) | "
+             "true mean (mm) |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         o, h = r["one_command"], r["hand_tuned"]
         pct = f"{o['nodes_within_0.1mm_pct']:.2f} %" if "nodes_within_0.1mm_pct" in o else "—"
         lines.append(f"| {r['blade']} | {r['points']} | exit {o['exit']}, {o['kind']}, {o['sections']} | "
                      f"{o['true_max_mm']:.3f} | {o['true_mean_mm']:.4f} | {pct} | {o['seconds']:.1f} | "
+                     f"{o['same_sections_other_method']['method']}: {o['same_sections_other_method']['true_max_mm']:.3f}"
+                     f" / {o['same_sections_other_method']['true_mean_mm']:.4f} | "
                      f"{h['sections']} sections, {h['method']} | {h['true_max_mm']:.3f} | {h['true_mean_mm']:.4f} |")
     text = "\n".join(lines) + "\n"
     print(text)
