@@ -6,22 +6,26 @@ airfoil: the hub fillet, the rounded tip cap. :func:`auto_sections` finds, from 
 alone, and says why:
 
 1. **the span direction**: of the cloud's principal axes (snapped to x, y or z when within
-   3°), the one whose thin slabs are smallest against the cloud's extent along it (a blade
-   is cut into airfoils across its span, into long strips along it);
+   3°, or when that axis cuts at least 90 % as well), the one whose thin slabs are smallest
+   against the cloud's extent along it (a blade is cut into airfoils across its span, into
+   long strips along it), pointed from hub to tip;
 2. **the airfoil span**: the area of each thin slab's convex hull along the span follows a
    smooth trend over the airfoil; the fillet makes it grow and the cap makes it shrink.
    A quadratic trend of the middle half is extended both ways; the span ends where two
    slabs in a row leave it by more than ``max(4 x its scatter, 3 %)``, less a margin of
    one slab (``span_range`` overrides);
-3. **the slab width and number of sections** from the density: each slab should hold about
-   ``SLAB_POINTS`` points; sections cover at most a quarter of the span (6 to 21 sections);
-4. **every slab's points in order, by geometry**: the points of a slab are moved onto the
-   cutting plane *along the surface* (the span direction projected on the local tangent
-   plane, normals from the 12 nearest nodes), split into pieces by proximity, pieces closer
-   than the blade's own thickness merged, a piece standing farther off than the thickness
-   and as large as a fifth of the slab refused as a second blade, small ones dropped as
-   outliers; the kept points are put in a loop by their camber line
-   (:func:`bladerecon.core.sections.ordering._camber_order`), never by the file's order.
+3. **the sections**: when most nodes lie on common planes across the span (node rows of a
+   CFD mesh, a measurement plan: :func:`node_rows`), those rows are the sections; else the
+   slab width from the density (each slab about ``SLAB_POINTS`` points) and 6 to 21 sections
+   covering at most a quarter of the span;
+4. **every slab's points in order, by geometry**, never the file's: split into pieces by
+   proximity, pieces closer than the spacing along the loop or the blade's own thickness
+   merged, a piece farther off and as large as a fifth of the slab refused as a second blade,
+   small ones dropped as outliers (:func:`order_slab`); the kept points put in a loop by their
+   camber line (:func:`bladerecon.core.sections.ordering._camber_order`) and untangled;
+5. **onto the plane along the surface**: each slab point slid along the blade by the
+   section's normal speed, fitted in a window of neighbours along the loop
+   (:func:`_slide_to_plane`), not along the axis.
 
 Units: mm.
 """
@@ -260,7 +264,6 @@ def _slide_to_plane(q: np.ndarray, delta: np.ndarray, half_window: int = 3) -> n
 def _thickness(q: np.ndarray) -> float:
     """Largest thickness (mm) of a thin 2D section: spread about a quadratic camber through
     the points, in ten bins along the chord."""
-    a, b = np.argmax(q[:, 0]), np.argmin(q[:, 0])
     u = q - q.mean(axis=0)
     e = np.linalg.svd(u, full_matrices=False)[2]
     x, y = u @ e[0], u @ e[1]
@@ -269,7 +272,6 @@ def _thickness(q: np.ndarray) -> float:
     bins = np.linspace(x.min(), x.max(), 11)
     idx = np.clip(np.digitize(x, bins) - 1, 0, 9)
     spans = [np.ptp(r[idx == i]) for i in range(10) if np.sum(idx == i) >= 3]
-    del a, b
     return float(max(spans)) if spans else float(np.ptp(y))
 
 

@@ -4,32 +4,33 @@
 Planes and cylinders cut an impeller or a radial turbine blade into open hub-to-shroud curves;
 its airfoils lie on surfaces of revolution between hub and shroud. From the cloud alone:
 
-1. every node's meridional coordinates (a, r) about the rotor axis (a along it, r from it);
-2. the channel's **mean line**: geodesic distance over a nearest-neighbour graph of the
-   meridional points from one end of the channel, centroids of 30 bins of it, smoothed by a
-   degree-5 polynomial in their arc length and extended 15 % at both ends;
-3. each node's place along the mean line ``m`` (mm) and across it ``n`` (mm); the **hub and
-   shroud lines** are the lowest and highest ``n`` in bins of ``m`` (smoothed, degree 4), the
-   hub being the side nearer the axis;
-4. the span fraction ``s = (n - n_hub) / (n_shroud - n_hub)``; a section on the stream
-   surface ``s_k`` takes the nodes of a shell of ``s`` around it, in the coordinates
-   ``(m, r·θ)`` (mm; θ about the blade's mean angle), ordered by geometry and slid onto the
-   stream surface along the blade (as the planar slabs of :mod:`.cloud`), then mapped back
-   to 3D on the stream surface.
+1. every node's meridional coordinates (a, r) about the rotor axis (a along it, r from it)
+   and its angle θ about the blade's mean angle;
+2. the **hub and shroud lines**: the outline of the meridional footprint (an alpha shape of
+   the Delaunay triangles, :func:`_boundary_loop`) cut at its four sharpest corners (LE and TE
+   at hub and shroud); of the two pairs of opposite sides the longer is hub and shroud, the
+   hub the side nearer the axis; both smoothed, resampled and continued straight 10 % past
+   their ends (:func:`find_channel`);
+3. stream surfaces ``(1 - s) hub(τ) + s shroud(τ)`` (straight quasi-orthogonals at equal
+   fractions τ of the lines' lengths); every node's (τ, s) by Newton steps from a grid;
+4. a section on the stream surface ``s_k`` takes the nodes of a thin shell of ``s`` around it
+   in the unrolled coordinates ``(m', r·θ)`` (mm along the stream surface, mm around),
+   ordered by geometry (:func:`bladerecon.core.sections.cloud.order_slab`), moved onto the
+   stream surface along the quasi-orthogonal and mapped back to 3D. The unrolled sections
+   and the map back are kept (``CloudSections.unrolled``, ``to_world``): the sections in
+   m'–θ for their parameters.
 
 Units: mm.
 """
 from __future__ import annotations
 
 import numpy as np
-from scipy.sparse.csgraph import dijkstra
 from scipy.spatial import cKDTree
 
 from bladerecon.core.errors import BladeReconError
 from bladerecon.core.sections.cloud import SLAB_POINTS, CloudSections, _camber_order, _drop_close, \
     _first_crossing, _uncross, order_slab
 
-ITER = 0
 __all__ = ["Channel", "find_channel", "meridional_sections"]
 
 
