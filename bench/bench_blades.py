@@ -9,7 +9,8 @@ as a CFD export: unordered, no noise; as a scan: 5 µm noise), prints and writes
 ``bench/results/blades.md`` / ``.json``:
 
 * the one command: ``reconstruct CLOUD --cloud-scale 1000`` (timed as a subprocess; its
-  surface rebuilt in process by the same functions, ``cut_sections`` -> ``reconstruct``);
+  surface rebuilt in process by the same functions, ``cut_sections`` -> ``choose_method`` ->
+  ``reconstruct``), and the same sections fitted with the other method;
 * hand-tuned: the true airfoil span (0.5 mm in from each end, or span fractions 0.05-0.95),
   21 or 31 sections (radial: 10 or 15), interpolate or approximate — the best of them by the true-surface max.
 
@@ -33,10 +34,9 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from bladerecon.cli.autocloud import AUTO_CLOUD_METHOD  # noqa: E402
 from bladerecon.core.geometry.projection import project_points_to_surface  # noqa: E402
 from bladerecon.core.reconstruct import reconstruct  # noqa: E402
-from bladerecon.core.sections.blade_cloud import cut_sections  # noqa: E402
+from bladerecon.core.sections.blade_cloud import choose_method, cut_sections, section_set  # noqa: E402
 from bladerecon.core.sections.ordering import build_sections  # noqa: E402
 from bladerecon.samples.propeller import AIRFOIL, blade_cloud, fan_blade, propeller_blade, write_cloud  # noqa: E402
 from bladerecon.samples.radial import radial_cloud, radial_rotor  # noqa: E402
@@ -94,12 +94,15 @@ def main() -> None:
         seconds = time.perf_counter() - t0
         summary = json.loads(run.stdout) if run.returncode == 0 else {}
         cs = cut_sections(P)
-        one = _score(blade, P, lab, cs, _surface(cs, P, AUTO_CLOUD_METHOD), radial)
-        other = "approximate" if AUTO_CLOUD_METHOD == "interpolate" else "interpolate"
+        chosen = choose_method(cs, P, section_set(cs, np.arange(len(P)) + 1, "b"))[0]
+        one = _score(blade, P, lab, cs, _surface(cs, P, chosen), radial)
+        one["method"] = chosen
+        other = "approximate" if chosen == "interpolate" else "interpolate"
         alt = _score(blade, P, lab, cs, _surface(cs, P, other), radial)
         one["same_sections_other_method"] = {"method": other, **alt}
         one.update({"exit": run.returncode, "seconds": seconds,
                     "kind": summary.get("slicing", {}).get("kind"),
+                    "cli_method": summary.get("surface", {}).get("method"),
                     "sections": summary.get("input", {}).get("sections")})
         best = None
         for n in ((10, 15) if radial else (21, 31)):
@@ -127,14 +130,14 @@ def main() -> None:
     lines = [f"# Every blade by one command (issue 25) — {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC, "
              f"{platform.node()}, Python {platform.python_version()}",
              "",
-             "| blade | points | one command: kind, sections | true max (mm) | true mean (mm) | nodes ≤ 0.1 mm | "
+             "| blade | points | one command: kind, sections, method | true max (mm) | true mean (mm) | nodes ≤ 0.1 mm | "
              "time (s) | same sections, other method: max / mean (mm) | best hand-tuned | true max (mm) | "
              "true mean (mm) |",
              "|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         o, h = r["one_command"], r["hand_tuned"]
         pct = f"{o['nodes_within_0.1mm_pct']:.2f} %" if "nodes_within_0.1mm_pct" in o else "—"
-        lines.append(f"| {r['blade']} | {r['points']} | exit {o['exit']}, {o['kind']}, {o['sections']} | "
+        lines.append(f"| {r['blade']} | {r['points']} | exit {o['exit']}, {o['kind']}, {o['sections']}, {o['method']} | "
                      f"{o['true_max_mm']:.3f} | {o['true_mean_mm']:.4f} | {pct} | {o['seconds']:.1f} | "
                      f"{o['same_sections_other_method']['method']}: {o['same_sections_other_method']['true_max_mm']:.3f}"
                      f" / {o['same_sections_other_method']['true_mean_mm']:.4f} | "

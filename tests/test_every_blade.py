@@ -17,12 +17,11 @@ from contextlib import redirect_stdout
 import numpy as np
 import pytest
 
-from bladerecon.cli.autocloud import AUTO_CLOUD_METHOD
 from bladerecon.cli.main import main
 from bladerecon.core.errors import BladeReconError
 from bladerecon.core.geometry.projection import project_points_to_surface
 from bladerecon.core.reconstruct import reconstruct
-from bladerecon.core.sections.blade_cloud import cut_sections
+from bladerecon.core.sections.blade_cloud import choose_method, cut_sections, section_set
 from bladerecon.core.sections.cloud import order_slab
 from bladerecon.core.sections.ordering import build_sections
 from bladerecon.samples.propeller import AIRFOIL, blade_cloud, fan_blade, propeller_blade, write_cloud
@@ -51,8 +50,9 @@ def _reconstructed(name: str):
         blade, P, _ = _blade(name)
         cs = cut_sections(P)
         lines = np.arange(len(P)) + 1
-        ss = cs.section_set(lines, name) if cs.info["kind"] == "stream-surfaces" else build_sections(cs.pointset(lines, name))
-        rec = reconstruct([s.points for s in ss.sections], ss.span_axis, method=AUTO_CLOUD_METHOD)
+        ss = section_set(cs, lines, name)
+        method, _, _ = choose_method(cs, P, ss)
+        rec = reconstruct([s.points for s in ss.sections], ss.span_axis, method=method)
         _CACHE[key] = (cs, rec)
     return _CACHE[key]
 
@@ -70,7 +70,8 @@ def test_one_command_no_options_exit_0(name, tmp_path):
     summary = json.loads(out.getvalue())
     sl = summary["slicing"]
     assert sl["kind"] == ("stream-surfaces" if name == "radial" else "auto-planes")
-    assert sl["kind_reason"]
+    assert sl["kind_reason"] and sl["method_reason"]
+    assert summary["surface"]["method"] in sl["method_reason"]
     if name != "radial":
         # the span axis found is the blade's, and the airfoil span lies inside the true one
         assert np.allclose(sl["axis"], blade.span_axis, atol=1e-9)
@@ -203,6 +204,6 @@ def test_node_rows_are_the_sections():
     lo, hi = cs.info["airfoil_span_mm"]
     assert abs(lo - 40.0) < 1e-6 and abs(hi - 200.0) < 1e-6
     ss = build_sections(cs.pointset(np.arange(len(P)) + 1, "rows"))
-    rec = reconstruct([s.points for s in ss.sections], ss.span_axis, method=AUTO_CLOUD_METHOD)
+    rec = reconstruct([s.points for s in ss.sections], ss.span_axis, method="interpolate")
     d = project_points_to_surface(rec.surface, P[lab == AIRFOIL]).distance
     assert d.max() < 0.02, d.max()

@@ -21,10 +21,6 @@ from bladerecon.core.errors import BladeReconError
 
 __all__ = ["add_options", "read_input", "is_auto", "build", "pole_cap_note"]
 
-#: the method of the automatic cloud path when --method is left at auto: the slabs' points lie
-#: on the blade after sliding, spaced unevenly; the core's smoothing choice misjudges them
-#: (measured in docs/blades.md: 0.47 mm against 0.14 mm for interpolate on the propeller)
-AUTO_CLOUD_METHOD = "interpolate"
 #: fewest points of a cloud sliced automatically (six sections of a few hundred points)
 MIN_CLOUD_POINTS = 2000
 
@@ -64,9 +60,8 @@ def is_auto(args: argparse.Namespace) -> bool:
 def build(args: argparse.Namespace, pointset, build_sections):
     """The ordered sections: stream-surface sections as cut (their projection on one plane may
     cross itself), anything else through ``build_sections``."""
-    cs = getattr(args, "_auto_cloud", None)
-    if cs is not None and cs.info.get("kind") == "stream-surfaces":
-        return cs.section_set(args._cloud_lines, args.input)
+    if getattr(args, "_auto_cloud", None) is not None:
+        return args._cloud_sections
     return build_sections(pointset)
 
 
@@ -92,7 +87,7 @@ def read_input(args: argparse.Namespace):
             raise BladeReconError(f"--{own[0].replace('_', '-')} applies to an unordered cloud; "
                                   f"{args.input} holds {len(ps.section_names)} sections")
         return realdata.read_input(args)
-    from bladerecon.core.sections.blade_cloud import cut_sections
+    from bladerecon.core.sections.blade_cloud import choose_method, cut_sections, section_set
 
     if args.sections is not None and not 2 <= args.sections <= 200:
         raise BladeReconError(f"--sections {args.sections}: give 2 to 200")
@@ -111,12 +106,10 @@ def read_input(args: argparse.Namespace):
     args._auto_cloud = cs
     info = dict(cs.info)
     info["cloud_scale"] = args.cloud_scale
-    if args.method == "auto":
-        args.method = AUTO_CLOUD_METHOD
-        info["method_reason"] = ("whole-cloud input with --method auto: the slid slab points are "
-                                 f"fitted with '{AUTO_CLOUD_METHOD}' (the core's smoothing choice misjudges "
-                                 "uneven cloud spacing; see docs/blades.md)")
     args._cloud_lines = lines
+    args._cloud_sections = section_set(cs, lines, args.input)
+    if args.method == "auto":
+        args.method, info["method_reason"], info["method_scores"] = choose_method(cs, P, args._cloud_sections)
     return cs.pointset(lines, args.input), info
 
 

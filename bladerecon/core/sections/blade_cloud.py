@@ -16,7 +16,10 @@ from bladerecon.core.errors import BladeReconError
 from bladerecon.core.sections.cloud import CloudSections, auto_sections
 from bladerecon.core.sections.meridional import meridional_sections
 
-__all__ = ["cut_sections", "OPEN_GAP_RATIO"]
+__all__ = ["cut_sections", "section_set", "choose_method", "OPEN_GAP_RATIO", "HELD_OUT"]
+
+#: cloud nodes between the sections (not in them) that judge the fitting method
+HELD_OUT = 3000
 
 #: a planar cut whose loop jumps by more than this x its median point spacing is an open curve
 #: (airfoils of the test blades: at most 16x; planes through the radial test rotor: 15-60x)
@@ -55,3 +58,43 @@ def cut_sections(P: np.ndarray, kind: str = "auto", span_range=None, n_sections:
     cs = meridional_sections(P, rotor_axis, n_sections, span_range)
     cs.info["kind_reason"] = f"radial: {why}; stream surfaces about {rotor_name} between hub and shroud"
     return cs
+
+
+def section_set(cs: CloudSections, lines: np.ndarray, source: str):
+    """The ordered sections of ``cs`` for the surface fit: stream-surface sections as cut,
+    planar ones through ``build_sections`` (which keeps their geometric order)."""
+    from bladerecon.core.sections.ordering import build_sections
+
+    if cs.info.get("kind") == "stream-surfaces":
+        return cs.section_set(lines, source)
+    return build_sections(cs.pointset(lines, source))
+
+
+def choose_method(cs: CloudSections, P: np.ndarray, sections) -> tuple[str, str, dict]:
+    """``interpolate`` or ``approximate`` for the sections of a cloud, judged on the cloud's own
+    nodes that lie between the sections but in none of them (up to ``HELD_OUT``, evenly
+    picked): the method whose surface they are closer to (RMS) wins. Returns
+    ``(method, reason, {method: {rms_mm, max_mm}})``."""
+    from bladerecon.core.geometry.projection import project_points_to_surface
+    from bladerecon.core.reconstruct import reconstruct
+
+    used = np.zeros(len(P), dtype=bool)
+    used[np.concatenate(cs.rows)] = True
+    held = np.setdiff1d(cs.between if cs.between is not None else np.arange(len(P)), np.flatnonzero(used))
+    if held.size < 50:
+        return "interpolate", "interpolate: fewer than 50 nodes between the sections to judge by", {}
+    held = held[np.linspace(0, held.size - 1, min(HELD_OUT, held.size)).round().astype(int)]
+    pts = [s.points for s in sections.sections]
+    scores = {}
+    for method in ("interpolate", "approximate"):
+        try:
+            rec = reconstruct(pts, sections.span_axis, method=method)
+        except BladeReconError:
+            continue
+        d = project_points_to_surface(rec.surface, P[held]).distance
+        scores[method] = {"rms_mm": float(np.sqrt(np.mean(d * d))), "max_mm": float(d.max())}
+    if not scores:
+        return "interpolate", "interpolate: neither fit could be judged", {}
+    best = min(scores, key=lambda m: scores[m]["rms_mm"])
+    text = ", ".join(f"{m} {v['rms_mm'] * 1000:.1f} µm" for m, v in scores.items())
+    return best, (f"{best}: closer to the {held.size} cloud nodes between the sections (RMS: {text})"), scores

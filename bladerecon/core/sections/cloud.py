@@ -61,6 +61,7 @@ class CloudSections:
     info: dict = field(repr=False)
     unrolled: list | None = field(default=None, repr=False)   # stream surfaces: (x m', y r·θ, z s·H) mm
     to_world: object = field(default=None, repr=False)        # maps unrolled points (n, 3) back to mm
+    between: np.ndarray | None = field(default=None, repr=False)  # cloud rows between the end sections
 
     def pointset(self, lines: np.ndarray, source: str) -> PointSet:
         pts = np.concatenate(self.sections)
@@ -458,4 +459,5 @@ def auto_sections(P: np.ndarray, span_range: tuple[float, float] | None = None, 
     info.update({"slab_points": counts, "outliers_dropped": dropped, "pieces_merged": int(merged),
                  "thickness_mm": [float(t) for t in thick], "moved_onto_plane": "along the surface",
                  "largest_gap_ratio": [float(g) for g in gaps]})
-    return CloudSections(sections, rows, axis, pos, info)
+    between = np.flatnonzero((h >= pos[0]) & (h <= pos[-1]))
+    return CloudSections(sections, rows, axis, pos, info, between=between)
