@@ -149,10 +149,13 @@ def _run_blade(job: dict) -> dict:
         if summary is not None:
             return _record(job, summary, inputs, resumed=True)
     opts = job["options"]
-    ns = argparse.Namespace(measured=job["file"], nominal=job["nominal"], align=opts["align"],
-                            robust=opts["robust"], tolerance=opts["tolerance"], csv="deviations.csv",
-                            report="report" if opts["report"] else None, aligned=None, force=False,
-                            json=True, quiet=True, plan=None, inspection_plan=None)
+    # deviation's own defaults for every option batch does not set (a new deviation option then
+    # needs nothing here), with batch's choices on top
+    ns = argparse.Namespace(**{**_deviation_defaults(), "measured": job["file"], "nominal": job["nominal"],
+                               "align": opts["align"], "robust": opts["robust"], "tolerance": opts["tolerance"],
+                               "csv": "deviations.csv", "report": "report" if opts["report"] else None,
+                               "aligned": None, "force": False, "json": True, "quiet": True,
+                               "inspection_plan": None})
     check_input(job["file"], "MEASURED")
     check_input(job["nominal"], "--nominal")
     moved = _move_aside(job["out"])
@@ -393,6 +396,15 @@ def _on_dask(jobs: list[dict], args, done) -> None:
             done(index[fut.key], fut.result())
     finally:
         client.close()
+
+
+def _deviation_defaults() -> dict:
+    """The default of every ``deviation`` option, from its own parser."""
+    from bladerecon.cli import deviation
+
+    parser = argparse.ArgumentParser()
+    deviation.add_parser(parser.add_subparsers())
+    return vars(parser.parse_args(["deviation", "MEASURED", "--nominal", "NOMINAL"]))
 
 
 def run_batch(args: argparse.Namespace) -> dict:

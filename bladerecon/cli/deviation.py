@@ -50,6 +50,12 @@ def add_parser(sub) -> None:
     from bladerecon.cli.sections import flow_direction
     d.add_argument("--flow", type=flow_direction, metavar="X,Y,Z",
                    help="direction the fluid travels: the section table's LE is the upstream end of every section")
+    d.add_argument("--span-range", metavar="A:B",
+                   help="leave out points outside A..B mm along --span-axis (a scan's fillet and tip cap); "
+                        "they are counted in the summary")
+    d.add_argument("--span-axis", choices=("x", "y", "z"), default="z", help="axis of --span-range (default z)")
+    d.add_argument("--crop-to-nominal", action="store_true",
+                   help="leave out points outside the nominal's bounding box grown by 1 mm (counted)")
     d.add_argument("--json", action="store_true", help="print one JSON summary object to stdout")
     d.add_argument("--quiet", action="store_true", help="no progress messages on stderr")
     one_line_errors(d)
@@ -126,6 +132,7 @@ def _run(args: argparse.Namespace, temps: dict) -> dict:
         points, section, names = _read_measured(args.measured)
     _say(args, f"{len(points)} points; reading nominal {args.nominal}")
     nominal = load_nominal(args.nominal)
+    points, section, crop = _crop(args, points, section, nominal)
     t_read = time.perf_counter()
     if args.align != "none":
         _say(args, f"best fit ({args.align})")
@@ -148,6 +155,8 @@ def _run(args: argparse.Namespace, temps: dict) -> dict:
                     "method": "+".join(res.deviation.methods)},
         "units": "mm", "measured": args.measured,
     }
+    if crop is not None:
+        summary["cropped"] = crop
     if args.csv:
         write_deviation_csv(temps["csv"], res.points, res.deviation)
     if args.aligned:
@@ -180,6 +189,29 @@ def _inspect(args, nominal):
     return inspect_measured(read_points(args.measured, require_sections=False), nominal, args.inspection_plan,
                             tolerance=args.tolerance, robust=args.robust, nominal_name=args.nominal,
                             say=lambda msg: _say(args, msg))
+
+
+def _crop(args, points, section, nominal):
+    """Points left out by --span-range / --crop-to-nominal, counted (issue 25)."""
+    if args.span_range is None and not args.crop_to_nominal:
+        return points, section, None
+    from bladerecon.core.analysis.crop import crop_points
+
+    rng = None
+    if args.span_range is not None:
+        try:
+            rng = tuple(float(v) for v in args.span_range.split(":"))
+            if len(rng) != 2 or not all(np.isfinite(rng)):
+                raise ValueError
+        except ValueError:
+            raise BladeReconError(f"--span-range '{args.span_range[:40]}': give A:B in mm, e.g. 45:195") from None
+    box = None
+    if args.crop_to_nominal:
+        b = nominal.shape.BoundBox
+        box = ((b.XMin, b.YMin, b.ZMin), (b.XMax, b.YMax, b.ZMax))
+    keep, info = crop_points(points, np.eye(3)["xyz".index(args.span_axis)], rng, box)
+    _say(args, f"{info['points_in'] - info['points_kept']} points left out by the crop, {info['points_kept']} kept")
+    return points[keep], (None if section is None else section[keep]), info
 
 
 def _section_table(args, res, nominal) -> dict:

@@ -57,6 +57,9 @@ def add_parser(sub) -> None:
     from bladerecon.cli.realdata import add_options as add_realdata_options
 
     add_realdata_options(r)
+    from bladerecon.cli.autocloud import add_options as add_autocloud_options
+
+    add_autocloud_options(r)
     r.set_defaults(run=run_reconstruct)
 
 
@@ -117,8 +120,9 @@ def _reconstruct(args: argparse.Namespace, say, step: str | None, report: str | 
         raise BladeReconError("--pairing angle interpolates the paired points; use it without --method approximate")
     t_start = time.perf_counter()
     say(f"reading {args.input}")
-    pointset, slicing = realdata.read_input(args)
-    sections = build_sections(pointset)
+    from bladerecon.cli import autocloud
+    pointset, slicing = autocloud.read_input(args)
+    sections = autocloud.build(args, pointset, build_sections)
     t_read = time.perf_counter()
     n_reordered = sum(s.reordered for s in sections.sections)
     say(f"{len(pointset.points)} points in {len(sections.sections)} sections"
@@ -188,6 +192,9 @@ def _reconstruct(args: argparse.Namespace, say, step: str | None, report: str | 
         summary["surface"]["pairing_added_points"] = int(rec.added_points)
     if slicing is not None:
         summary["slicing"] = slicing
+    cap_note = autocloud.pole_cap_note(surf, rec.refit_error, rec.tolerance)
+    if cap_note is not None:
+        summary["surface"]["pole_cap"] = cap_note
     if fairing is not None:
         summary["fairing"] = fairing
     if getattr(rec, "surface_fairing", None) is not None:

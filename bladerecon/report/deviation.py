@@ -39,6 +39,20 @@ def _limits(d_um: np.ndarray, tol_um: float) -> float:
     return float(max(np.percentile(np.abs(d_um), 99.5), 1e-3))
 
 
+def _beyond(d_um: np.ndarray, lim: float) -> str:
+    """Colour-bar note: how many points the robust scale clips, each way."""
+    above, below = int(np.sum(d_um > lim)), int(np.sum(d_um < -lim))
+    return f"\n{above} points above +{lim:.3g}, {below} below -{lim:.3g} (scale: 99.5th percentile)" if above + below else ""
+
+
+def _section_plane(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Origin and (2, 3) basis of a section's own plane (its two principal directions): a
+    section across x, y, z or on a stream surface is drawn face on, never edge on."""
+    o = points.mean(axis=0)
+    vt = np.linalg.svd(points - o, full_matrices=False)[2]
+    return o, vt[:2]
+
+
 def _subsample(n: int) -> np.ndarray:
     if n <= _MAX_PLOT_POINTS:
         return np.arange(n)
@@ -50,7 +64,7 @@ def _plot_uv(path: str, u: np.ndarray, v: np.ndarray, d_um: np.ndarray, tol_um: 
     fig, ax = plt.subplots(figsize=(10, 4.2), dpi=100)
     lim = _limits(d_um, tol_um)
     sc = ax.scatter(u, v, c=d_um, s=6, cmap="coolwarm", vmin=-lim, vmax=lim)
-    fig.colorbar(sc, ax=ax, label="deviation (µm), + = material outside the nominal")
+    fig.colorbar(sc, ax=ax, label="deviation (µm), + = material outside the nominal" + _beyond(d_um, lim))
     ax.set_xlabel("u (around the section; 0 = start of the nominal's parameter)")
     ax.set_ylabel("v (span, hub → tip)")
     ax.set_title("Deviation map, blade unrolled in (u, v) of the nominal")
@@ -72,7 +86,7 @@ def _plot_3d(path: str, P: np.ndarray, d_um: np.ndarray, tol_um: float) -> None:
         ax.set_xlabel("x")
         ax.set_ylabel("y")
         ax.set_zlabel("z")
-    fig.colorbar(sc, ax=fig.axes, shrink=0.7, label="deviation (µm)")
+    fig.colorbar(sc, ax=fig.axes, shrink=0.7, label="deviation (µm)" + _beyond(d_um, lim))
     fig.savefig(path)
     plt.close(fig)
 
@@ -114,7 +128,8 @@ def _section_groups(section, names, v: np.ndarray, n: int) -> list[tuple[str, np
 
 
 def _plot_needles(path: str, groups, P, foot, normal, d_mm: np.ndarray, tol_um: float) -> None:
-    """Each section in its own plane (x, y), needles from the foot along the normal, scaled."""
+    """Each section in its own plane (its principal directions), needles from the foot along the
+    normal, scaled."""
     plt = _plt()
     groups = [(name, idx) for name, idx in groups if idx.size]
     n = len(groups)
@@ -123,20 +138,22 @@ def _plot_needles(path: str, groups, P, foot, normal, d_mm: np.ndarray, tol_um: 
     cols = min(3, n)
     rows = (n + cols - 1) // cols
     fig, axes = plt.subplots(rows, cols, figsize=(5 * cols, 3.6 * rows), dpi=100, squeeze=False)
-    size = float(np.linalg.norm(np.ptp(P[:, :2], axis=0)))
+    size = max(float(np.linalg.norm(np.ptp(foot[idx], axis=0))) for _, idx in groups)
     scale = 0.08 * size / max(float(np.abs(d_mm).max()), 1e-9)      # the longest needle: 8 % of the chord
     for ax, (name, idx) in zip(axes.ravel(), groups):
+        o, basis = _section_plane(foot[idx])
+        f2 = (foot - o) @ basis.T
         sel = idx[:: max(1, idx.size // 400)]
-        ax.plot(foot[idx, 0], foot[idx, 1], ".", ms=0.6, color="0.4")
-        tip = foot[sel] + (d_mm[sel] * scale)[:, None] * normal[sel]
+        ax.plot(f2[idx, 0], f2[idx, 1], ".", ms=0.6, color="0.4")
+        tip = ((foot[sel] + (d_mm[sel] * scale)[:, None] * normal[sel]) - o) @ basis.T
         out = np.abs(d_mm[sel]) * 1000 > tol_um
         for mask, colour in ((~out, "#2b8a3e"), (out, "crimson")):
-            segs = np.stack([foot[sel][mask, :2], tip[mask, :2]], axis=1)
-            for s in segs:
-                ax.plot(s[:, 0], s[:, 1], color=colour, lw=0.6)
+            segs = np.stack([f2[sel][mask], tip[mask]], axis=1)
+            for seg in segs:
+                ax.plot(seg[:, 0], seg[:, 1], color=colour, lw=0.6)
         k_max, k_min = idx[np.argmax(d_mm[idx])], idx[np.argmin(d_mm[idx])]
         for k in (k_max, k_min):
-            ax.annotate(f"{d_mm[k] * 1000:+.1f} µm", foot[k, :2], fontsize=7)
+            ax.annotate(f"{d_mm[k] * 1000:+.1f} µm", f2[k], fontsize=7)
         ax.set_aspect("equal")
         ax.set_title(f"{name if name.startswith('slice') else 'section ' + name}: needles ×{scale:.0f}", fontsize=9)
         ax.tick_params(labelsize=7)
@@ -179,8 +196,10 @@ def _surface_analysis_plots(tmp: str, surface, sign: float, what: str) -> dict[s
         _, pts, kappa, teeth = section_curvature(surface, v, 1500, sign)
         clip = 5.0 * float(np.median(np.abs(kappa)))
         k = np.clip(kappa, -clip, clip)
-        scale = 0.1 * np.linalg.norm(np.ptp(pts[:, :2], axis=0)) / max(clip, 1e-12)
-        tips = pts + (k * scale)[:, None] * teeth
+        scale = 0.1 * np.linalg.norm(np.ptp(pts, axis=0)) / max(clip, 1e-12)
+        o, basis = _section_plane(pts)
+        tips = (pts + (k * scale)[:, None] * teeth - o) @ basis.T
+        pts = (pts - o) @ basis.T                      # the section in its own plane
         ax.plot(pts[:, 0], pts[:, 1], lw=0.8, color="k")
         for a, b in zip(pts[::2], tips[::2]):
             ax.plot([a[0], b[0]], [a[1], b[1]], color="#1f77b4", lw=0.3)

@@ -1,0 +1,129 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
+"""``reconstruct CLOUD --cloud-scale 1000 -o blade.step`` with no slicing options (issue 25).
+
+A point file with no section structure (one block of ``x y z`` lines) and no ``--slice*``
+option is a whole-blade cloud: :func:`bladerecon.core.sections.cloud.auto_sections` finds the
+span direction, the airfoil span (fillet and tip cap left out), the number of sections and the
+slab width, and orders every slab by geometry. The JSON's ``slicing`` says what was chosen and
+why; ``--span-range A:B``, ``--span-axis`` and ``--sections`` override the choices.
+
+Also here: the note on the pole cap of the compatible section curves (issue 25 §4), for any
+input. Units: mm.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+
+import numpy as np
+
+from bladerecon.core.errors import BladeReconError
+
+__all__ = ["add_options", "read_input", "is_auto", "build", "pole_cap_note"]
+
+#: fewest points of a cloud sliced automatically (six sections of a few hundred points)
+MIN_CLOUD_POINTS = 2000
+
+
+def add_options(r: argparse.ArgumentParser) -> None:
+    g = r.add_argument_group("whole-blade clouds (no slicing options: everything found from the cloud)")
+    g.add_argument("--span-range", metavar="A:B",
+                   help="airfoil span to slice, mm along the span axis (default: found from the cloud, "
+                        "leaving out the hub fillet and the tip cap)")
+    g.add_argument("--span-axis", choices=("x", "y", "z", "-x", "-y", "-z"),
+                   help="span direction hub -> tip (default: found from the cloud)")
+    g.add_argument("--sections", type=int, metavar="N",
+                   help="number of sections cut from the cloud (default: from its density, 6 to 21)")
+    g.add_argument("--blade-kind", choices=("auto", "axial", "radial"), default="auto",
+                   help="axial: planes across the span; radial: stream surfaces between hub and shroud "
+                        "(radial and mixed-flow rotors); auto (default): radial when planes cut the blade "
+                        "into open curves")
+    g.add_argument("--rotor-axis", choices=("x", "y", "z"), default="z",
+                   help="with radial blades: the rotor axis through the origin (default z)")
+
+
+def _span_range(text: str) -> tuple[float, float]:
+    try:
+        a, b = (float(v) for v in text.split(":"))
+    except ValueError:
+        raise BladeReconError(f"--span-range '{text[:40]}': give A:B in mm, e.g. 45:195") from None
+    if not (np.isfinite(a) and np.isfinite(b) and a < b):
+        raise BladeReconError(f"--span-range '{text[:40]}': give A:B with A < B (mm)")
+    return a, b
+
+
+def is_auto(args: argparse.Namespace) -> bool:
+    """True once :func:`read_input` has taken the whole-cloud path."""
+    return getattr(args, "_auto_cloud", None) is not None
+
+
+def build(args: argparse.Namespace, pointset, build_sections):
+    """The ordered sections: stream-surface sections as cut (their projection on one plane may
+    cross itself), anything else through ``build_sections``."""
+    if getattr(args, "_auto_cloud", None) is not None:
+        return args._cloud_sections
+    return build_sections(pointset)
+
+
+def read_input(args: argparse.Namespace):
+    """The input as ``(PointSet, slicing summary or None)``: a structured file as before, the
+    ``--slice*`` options as before, a cloud with neither through the automatic slicing."""
+    from bladerecon.cli import realdata
+    from bladerecon.core.io.outputs import check_input
+    from bladerecon.core.io.readers import read_points
+
+    own = [o for o in ("span_range", "span_axis", "sections") if getattr(args, o, None) is not None]
+    if getattr(args, "blade_kind", "auto") != "auto":
+        own.append("blade_kind")
+    if realdata.slicing_requested(args):
+        if own:
+            raise BladeReconError(f"--{own[0].replace('_', '-')} applies to a cloud sliced automatically: "
+                                  "leave out --slice / --slice-at / --slice-radii")
+        return realdata.read_input(args)
+    check_input(args.input, "INPUT")
+    ps = read_points(args.input, require_sections=False)
+    if ps.structured and len(ps.section_names) > 1:
+        if own:
+            raise BladeReconError(f"--{own[0].replace('_', '-')} applies to an unordered cloud; "
+                                  f"{args.input} holds {len(ps.section_names)} sections")
+        return realdata.read_input(args)
+    from bladerecon.core.sections.blade_cloud import choose_method, cut_sections, section_set
+
+    if args.sections is not None and not 2 <= args.sections <= 200:
+        raise BladeReconError(f"--sections {args.sections}: give 2 to 200")
+    axis = None
+    if args.span_axis is not None:
+        axis = np.eye(3)["xyz".index(args.span_axis[-1])] * (-1.0 if args.span_axis.startswith("-") else 1.0)
+    P, lines = realdata._read_cloud(args.input, args.cloud_scale)
+    if len(P) < MIN_CLOUD_POINTS:
+        raise BladeReconError(
+            f"{args.input}: {len(P)} points with no section labels: too few to cut sections from automatically "
+            f"(a whole-blade cloud needs at least {MIN_CLOUD_POINTS}); label the sections (a 'section' column, or "
+            "blank lines between blocks) or cut them with --slice / --slice-at / --slice-radii")
+    rng = _span_range(args.span_range) if args.span_range is not None else None
+    rotor = np.eye(3)["xyz".index(args.rotor_axis)]
+    cs = cut_sections(P, args.blade_kind, rng, args.sections, axis, rotor)
+    args._auto_cloud = cs
+    info = dict(cs.info)
+    info["cloud_scale"] = args.cloud_scale
+    args._cloud_lines = lines
+    args._cloud_sections = section_set(cs, lines, args.input)
+    if args.method == "auto":
+        args.method, info["method_reason"], info["method_scores"] = choose_method(cs, P, args._cloud_sections)
+    return cs.pointset(lines, args.input), info
+
+
+def pole_cap_note(surface, refit_error: float, tolerance: float | None) -> dict | None:
+    """When the common section knots reached the pole cap and the compatible curves miss the
+    section curves by more than their tolerance: a JSON note and a warning (never silent)."""
+    from bladerecon.core.reconstruct import DEFAULT_REFIT_TOL
+
+    tol = DEFAULT_REFIT_TOL if tolerance is None else max(DEFAULT_REFIT_TOL, 0.25 * tolerance)
+    cap = 1500
+    if surface.shape[0] < cap or not refit_error > tol:
+        return None
+    print(f"bladerecon: warning: the section curves reached the cap of {cap} poles around: the common curves "
+          f"miss them by {refit_error * 1000:.1f} µm, over the {tol * 1000:.1f} µm asked "
+          "(fewer points per section, or --method approximate, stay under it)", file=sys.stderr, flush=True)
+    return {"reached": True, "poles": int(surface.shape[0]), "refit_error_mm": float(refit_error),
+            "refit_tolerance_mm": float(tol), "missed_by_mm": float(refit_error - tol)}
