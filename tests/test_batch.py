@@ -146,7 +146,7 @@ def test_bad_blade_fails_alone_and_resume_skips_the_rest(tmp_path):
     out = tmp_path / "out"
     plan = tmp_path / "plan.toml"
     plan.write_text("[profile]\nflanks = 0.08\n[parameters]\nchord = [-0.10, 0.10]\nle_radius = [-0.03, 0.03]\n"
-                    "position = 0.10\n")
+                    "position = 0.10\n[fit]\nmode = \"none\"\n")     # as measured: the offsets stay to be seen
     r = run("batch", manifest, "--nominal", NOMINAL, "-o", out, "--workers", "2", "--report", "--plan", plan)
     assert r.returncode == 2 and "1 of 3 blades failed" in r.stderr and "Traceback" not in r.stderr
     data = json.loads((out / "lot" / "lot.json").read_text())
@@ -156,9 +156,19 @@ def test_bad_blade_fails_alone_and_resume_skips_the_rest(tmp_path):
     first = json.loads((out / "B00" / "summary.json").read_text())
     assert first["points"] == 160 and first["mean"] == pytest.approx(-0.004, abs=0.0015)
     assert (out / "B00" / "report" / "report.html").exists()
+    # --plan: every blade judged by the inspection plan (deviation --plan's verdicts), lot.json
+    # carries each blade's verdict and failed checks and the count, as its summary.json says
+    for rec in data["blades"][:2]:
+        own = json.loads((out / rec["blade"] / "summary.json").read_text())
+        assert rec["verdict"] == own["verdict"] in ("pass", "fail")
+        failed = [f"section {sec['label']}: {name}" for sec in own["sections"] for group in ("profile", "parameters")
+                  for name, c in sec[group].items() if not c["pass"]]
+        assert rec["failed"] == failed and (own["verdict"] == "pass") == (not failed)
+    verdicts = [rec["verdict"] for rec in data["blades"][:2]]
+    assert data["lot"]["verdicts"] == {"pass": verdicts.count("pass"), "fail": verdicts.count("fail")}
     # --report: section parameters (measured - nominal) per blade, their lot statistics, the plan's limits
-    rows = first["sections"]["rows"]
-    chords = [json.loads((out / b / "summary.json").read_text())["sections"]["rows"][1]["difference"]["chord"]
+    rows = first["section_parameters"]["rows"]
+    chords = [json.loads((out / b / "summary.json").read_text())["section_parameters"]["rows"][1]["difference"]["chord"]
               for b in ("B00", "B01")]
     st = data["statistics"]["section.1.chord"]
     assert len(rows) == 2 and st["n"] == 2 and st["mean"] == pytest.approx(statistics.fmean(chords), abs=1e-15)

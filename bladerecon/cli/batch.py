@@ -50,8 +50,9 @@ def add_parser(sub) -> None:
 def add_lot_options(p) -> None:
     """The options ``batch`` and ``blisk`` share."""
     p.add_argument("-o", "--output", required=True, metavar="OUTDIR", help="folder for the blades' results and lot/")
-    p.add_argument("--plan", metavar="TOML", help="inspection plan: its [parameters] limits give Cp/Cpk of the "
-                                                  "section parameters")
+    p.add_argument("--plan", metavar="TOML", help="inspection plan (docs/verdicts.md): every blade judged by it "
+                                                  "(its verdict in lot.json), and its [parameters] limits give "
+                                                  "Cp/Cpk of the section parameters")
     p.add_argument("--align", choices=("none", "rigid", "translate", "rotate-z"), default="none",
                    help="best fit of each blade before comparing (as deviation --align)")
     p.add_argument("--robust", action="store_true", help="with --align: robust best fit (as deviation --robust)")
@@ -155,7 +156,7 @@ def _run_blade(job: dict) -> dict:
                                "align": opts["align"], "robust": opts["robust"], "tolerance": opts["tolerance"],
                                "csv": "deviations.csv", "report": "report" if opts["report"] else None,
                                "aligned": None, "force": False, "json": True, "quiet": True,
-                               "inspection_plan": None})
+                               "plan": opts.get("plan"), "inspection_plan": _inspection_plan(opts.get("plan"))})
     check_input(job["file"], "MEASURED")
     check_input(job["nominal"], "--nominal")
     moved = _move_aside(job["out"])
@@ -236,6 +237,27 @@ def _position(job: dict) -> dict:
     return errors
 
 
+def _inspection_plan(path: str | None):
+    """The inspection plan (issue 19) each blade is judged by, read where the blade runs."""
+    if not path:
+        return None
+    from bladerecon.core.inspection.plan import read_inspection_plan
+
+    return read_inspection_plan(path)
+
+
+def _failed_features(summary: dict) -> list[str]:
+    """``section <label>: <zone or parameter>`` for every failed check of a judged blade."""
+    out = []
+    for sec in summary.get("sections", []):
+        label = sec.get("label", sec.get("index"))
+        for group in ("profile", "parameters"):
+            for name, check in (sec.get(group) or {}).items():
+                if isinstance(check, dict) and check.get("pass") is False:
+                    out.append(f"section {label}: {name}")
+    return out
+
+
 def _record(job: dict, summary: dict, inputs: dict, resumed: bool) -> dict:
     """The blade's entry in lot.json: results only (no timings, no paths)."""
     from bladerecon.core.lot.stats import DEVIATION_FEATURES
@@ -247,10 +269,14 @@ def _record(job: dict, summary: dict, inputs: dict, resumed: bool) -> dict:
         al = summary["alignment"]
         rec["alignment"] = {"rotation_deg": al["rotation_deg"], "translation_mm": al["translation_mm"]}
     table = summary.get("sections")
-    if table and "rows" in table:
+    if "verdict" in summary:            # with an inspection plan: the verdicts, and the parameters apart
+        rec["verdict"] = summary["verdict"]
+        rec["failed"] = _failed_features(summary)
+        table = summary.get("section_parameters")
+    if isinstance(table, dict) and "rows" in table:
         rec["sections"] = [{"index": int(row["index"]), "name": str(name), "difference": row["difference"]}
                            for row, name in zip(table["rows"], table["names"])]
-    elif table and "error" in table:
+    elif isinstance(table, dict) and "error" in table:
         rec["sections_error"] = _shown(job, table["error"])
     if "position" in summary:
         rec["position"] = summary["position"]
@@ -263,7 +289,7 @@ def _record(job: dict, summary: dict, inputs: dict, resumed: bool) -> dict:
 def make_jobs(blades, args, out: str, position: dict | None = None) -> list[dict]:
     """One job (a plain dict: it travels to worker processes and Dask workers) per blade."""
     options = {"align": args.align, "robust": bool(args.robust), "tolerance": float(args.tolerance),
-               "report": bool(args.report)}
+               "report": bool(args.report), "plan": os.path.abspath(args.plan) if args.plan else None}
     jobs = []
     for b in blades:
         nominal = b.nominal or (os.path.abspath(args.nominal) if args.nominal else None)
@@ -302,7 +328,9 @@ def run_lot(jobs: list[dict], args, out: str, extra: dict | None = None, limits:
         r.pop("_resumed", None)
     all_limits = {**tolerance_limits(args.tolerance), **(limits or {})}
     failed = [r for r in records if r["status"] != "ok"]
+    judged = [r["verdict"] for r in records if "verdict" in r]
     lot = {"lot": {"blades": len(records), "ok": len(records) - len(failed), "failed": len(failed),
+                   **({"verdicts": {"pass": judged.count("pass"), "fail": judged.count("fail")}} if judged else {}),
                    "tolerance_mm": float(args.tolerance), "align": args.align, "robust": bool(args.robust),
                    "limits": {k: list(v) for k, v in sorted(all_limits.items())},
                    "units": {"deviation": "mm (within_tolerance_pct: %)",
@@ -415,6 +443,8 @@ def run_batch(args: argparse.Namespace) -> dict:
         check_input(args.nominal, "--nominal")
     blades = read_manifest(args.manifest)
     limits = read_plan_limits(args.plan) if args.plan else None
+    if args.plan:
+        _inspection_plan(args.plan)     # a bad plan stops here, in one line, before any blade runs
     out = prepare_output(args)
     jobs = make_jobs(blades, args, out)
     where = args.scheduler or f"{args.workers} local worker(s)"
