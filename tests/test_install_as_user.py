@@ -311,7 +311,8 @@ def disabled_difference(normal, disabled) -> dict:
 
 EXPECTED = {"BladeRecon_ImportPoints", "BladeRecon_AnalyseSections", "BladeRecon_Reconstruct", "BladeRecon_Compare",
             "BladeRecon_DeviationMap", "BladeRecon_DeviationOnPoints", "BladeRecon_Zebra", "BladeRecon_Curvature",
-            "BladeRecon_ExportStep", "BladeRecon_WriteReport", "BladeRecon_Acquire", "BladeRecon_TSpline"}
+            "BladeRecon_ExportStep", "BladeRecon_WriteReport", "BladeRecon_Acquire", "BladeRecon_TSpline",
+            "BladeRecon_Repair"}
 
 
 def test_freecad_reads_the_user_mod_folder_under_home(installed):

@@ -91,7 +91,7 @@ def test_flow_puts_every_leading_edge_upstream_on_a_te_first_file(tmp_path):
     blade = BLADES["small"]
     secs = _te_first(blade, 6, 240)
     f = tmp_path / "te_first.csv"
-    f.write_text("section,x,y,z\n" + "".join(f"{k},{x!r},{y!r},{z!r}\n" for k, p in enumerate(secs)
+    f.write_text("section,x,y,z\n" + "".join(f"{k},{float(x)!r},{float(y)!r},{float(z)!r}\n" for k, p in enumerate(secs)
                                               for x, y, z in p))
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     truth = _truth_le(blade, 6)
@@ -121,7 +121,7 @@ def test_flow_against_the_stream_swaps_every_section_and_a_bad_flow_is_refused(t
     for a, b in zip(fwd, back):
         assert np.linalg.norm(a.lift(a.le)[0] - b.lift(b.te)[0]) < 1e-9
     f = tmp_path / "s.csv"
-    f.write_text("section,x,y,z\n" + "".join(f"{k},{x!r},{y!r},{z!r}\n" for k, p in enumerate(secs)
+    f.write_text("section,x,y,z\n" + "".join(f"{k},{float(x)!r},{float(y)!r},{float(z)!r}\n" for k, p in enumerate(secs)
                                               for x, y, z in p))
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     for bad in ("0,0,0", "1,0", "a,b,c"):
@@ -134,7 +134,7 @@ def test_reconstruct_takes_the_flow_direction(tmp_path):
     """`reconstruct --flow`: the same TE-first file is accepted and the summary names the rule."""
     secs = _te_first(BLADES["small"], 4, 240)
     f = tmp_path / "te_first.csv"
-    f.write_text("section,x,y,z\n" + "".join(f"{k},{x!r},{y!r},{z!r}\n" for k, p in enumerate(secs)
+    f.write_text("section,x,y,z\n" + "".join(f"{k},{float(x)!r},{float(y)!r},{float(z)!r}\n" for k, p in enumerate(secs)
                                               for x, y, z in p))
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     r = subprocess.run([sys.executable, "-m", "bladerecon", "reconstruct", str(f), "--flow", "1,0,0", "--json",
@@ -151,7 +151,7 @@ def test_plan_starts_at_the_upstream_edge(tmp_path):
     blade = BLADES["small"]
     secs = _te_first(blade, 4, 3000)
     f = tmp_path / "nominal_sections.csv"
-    f.write_text("section,x,y,z\n" + "".join(f"{k},{x!r},{y!r},{z!r}\n" for k, p in enumerate(secs)
+    f.write_text("section,x,y,z\n" + "".join(f"{k},{float(x)!r},{float(y)!r},{float(z)!r}\n" for k, p in enumerate(secs)
                                               for x, y, z in p))
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     for flow, end in (("1,0,0", 0), ("-1,0,0", 1)):

@@ -674,7 +674,8 @@ def test_workbench_loads_with_all_commands(gui_run):
     assert Path(result["bladerecon_file"]).resolve().is_relative_to(REPO)
     expected = {"BladeRecon_ImportPoints", "BladeRecon_AnalyseSections", "BladeRecon_Reconstruct", "BladeRecon_Compare",
                 "BladeRecon_DeviationMap", "BladeRecon_DeviationOnPoints", "BladeRecon_Zebra", "BladeRecon_Curvature",
-                "BladeRecon_ExportStep", "BladeRecon_WriteReport", "BladeRecon_Acquire", "BladeRecon_TSpline"}
+                "BladeRecon_ExportStep", "BladeRecon_WriteReport", "BladeRecon_Acquire", "BladeRecon_TSpline",
+                "BladeRecon_Repair"}
     assert set(result["commands"]) == expected
     assert result["toolbar_visible"] and len(result["toolbar_actions"]) == len(expected)
     assert "BladeRecon" in result["menus"]

@@ -82,7 +82,7 @@ def read_input(args: argparse.Namespace):
         return realdata.read_input(args)
     check_input(args.input, "INPUT")
     ps = read_points(args.input, require_sections=False)
-    if ps.structured and len(ps.section_names) > 1:
+    if ps.structured:           # labelled sections (even one: the section path names what is missing)
         if own:
             raise BladeReconError(f"--{own[0].replace('_', '-')} applies to an unordered cloud; "
                                   f"{args.input} holds {len(ps.section_names)} sections")

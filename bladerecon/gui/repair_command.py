@@ -39,7 +39,7 @@ def repair_into_document(measured: Any, nominal: Any, tolerance: float = 0.03) -
 class RepairCommand(commands._Command):
     """Repair target of the selected measured points against the selected (or chosen) nominal."""
 
-    icon = "BladeRecon_Compare"
+    icon = "BladeRecon_Repair"
     menu_text = "Repair target"
     tool_tip = ("Repair target of a damaged blade: the nominal adapted to the blade's service twist and bend, "
                 "the damaged regions and the missing material; select the measured points and the nominal")
