@@ -191,3 +191,45 @@ def test_deviation_section_table_follows_the_flow():
             truth = blade.le_te(h)[end]
             assert np.linalg.norm(np.array(row["le"]) - truth) < 0.05
             assert np.linalg.norm(np.array(row["nominal"]["le"]) - truth) < 0.05
+            assert row["le_rule"] == "flow"
+    # no flow: the nominal decides, even for a measured blade whose worn TE is its blunter end
+    worn = SampleBlade(te_radius_hub=0.9, te_radius_tip=0.8)
+    secs = sample_sections(worn, 6, 400, "uniform", noise=0.002, seed=3)[::2]
+    rows = compare_section_parameters(secs, AXIS, False, shape)
+    for row, h in zip(rows, heights):
+        assert row["le_rule"] == "nominal"
+        assert np.linalg.norm(np.array(row["le"]) - worn.le_te(h)[0]) < 0.05
+        assert np.linalg.norm(np.array(row["nominal"]["le"]) - blade.le_te(h)[0]) < 0.05
+
+
+@pytest.mark.timeout(300)
+def test_without_flow_the_nominal_names_the_leading_edge(tmp_path):
+    """Issue 24 §1: no --flow but a nominal: the LE is taken from the nominal (`"le_rule":
+    "nominal"`, no guess warning). The measured blade's trailing edge is worn round (radius
+    0.9/0.8 mm against an LE of 0.9/0.7 mm), so on the measurement alone the blunter end is
+    the TE and the guess puts every LE 52-56 mm off (asserted, so the case stays hard); the
+    nominal (the sample's CAD, resources/sample/nominal.step) has its TE at 0.6/0.45 mm and
+    puts every measured LE within 0.02 mm of the analytic LE, the nominal's within 0.02 mm too."""
+    worn = SampleBlade(te_radius_hub=0.9, te_radius_tip=0.8)
+    secs = sample_sections(worn, 6, 400, "uniform", noise=0.002, seed=3)
+    f = tmp_path / "worn_te.csv"
+    f.write_text("section,x,y,z\n" + "".join(f"{k},{float(x)!r},{float(y)!r},{float(z)!r}\n" for k, p in enumerate(secs)
+                                              for x, y, z in p))
+    truth = np.array(_truth_le(worn, 6))
+    nominal_truth = np.array(_truth_le(SampleBlade(), 6))
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    base = [sys.executable, "-m", "bladerecon", "sections", str(f), "--json", "--lenient"]
+    runs = {}
+    for name, extra in (("alone", []), ("nominal", ["--nominal", str(ROOT / "resources" / "sample" / "nominal.step")])):
+        r = subprocess.run(base + extra, capture_output=True, text=True, env=env, timeout=300)
+        assert r.returncode == 0, r.stderr
+        runs[name] = (json.loads(r.stdout), r.stderr)
+    rows, err = runs["alone"]
+    assert all(row["le_rule"] == "blunter_edge" for row in rows) and "leading edge guessed" in err
+    assert np.linalg.norm(np.array([row["le"] for row in rows]) - truth, axis=1).min() > 50.0
+    rows, err = runs["nominal"]
+    assert all(row["le_rule"] == "nominal" for row in rows)
+    assert "leading edge guessed" not in err and "leading edge from the nominal" in err
+    assert not any("guessed" in w for row in rows for w in row["warnings"])
+    assert np.linalg.norm(np.array([row["le"] for row in rows]) - truth, axis=1).max() < 0.02
+    assert np.linalg.norm(np.array([row["nominal"]["le"] for row in rows]) - nominal_truth, axis=1).max() < 0.02

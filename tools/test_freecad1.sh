@@ -49,7 +49,8 @@ bind() {  # bind SRC: mount SRC at the same place inside the root
 # Never delete a root that still has something mounted inside (a bind of the host's /dev...).
 mounts_inside() { awk -v r="$root/" 'index($2 "/", r) == 1 {print $2}' /proc/mounts; }
 
-if [ ! -e "$root/.bladerecon-ready" ]; then
+# The ready mark holds the package list it was made with: a changed list installs again.
+if [ "$(cat "$root/.bladerecon-ready" 2>/dev/null)" != "$packages" ]; then
   if [ ! -e "$root/.bladerecon-bootstrapped" ]; then
     [ -z "$(mounts_inside)" ] || { say "still mounted inside $root: $(mounts_inside | tr '\n' ' ')(umount them first)"; exit 1; }
     rm -rf "$root"
@@ -72,7 +73,7 @@ if [ ! -e "$root/.bladerecon-ready" ]; then
        sh -c "apt-get update && apt-get install -y --no-install-recommends $packages" >"$root.install.log" 2>&1; then
     tail -20 "$root.install.log" >&2; say "apt-get install in the root failed (log: $root.install.log)"; exit 1
   fi
-  touch "$root/.bladerecon-ready"
+  printf '%s' "$packages" >"$root/.bladerecon-ready"
   cleanup; mounted=()
 fi
 

@@ -231,8 +231,6 @@ def _section_table(args, res, nominal) -> dict:
         flow = getattr(args, "flow", None)
         rows = compare_section_parameters(pts, ss.span_axis, not ss.sections[0].reordered, nominal.shape,
                                           name=args.nominal, flow=flow)
-        for row in rows:
-            row["le_rule"] = "flow" if flow is not None else "guessed"
         return {"rows": rows, "names": [s.name for s in ss.sections]}
     except BladeReconError as err:
         _say(args, f"no section-parameter table: {err}")

@@ -138,7 +138,8 @@ def _reconstruct(args: argparse.Namespace, say, step: str | None, report: str | 
     measured_start = not sections.sections[0].reordered
     flow = getattr(args, "flow", None)
     if flow is not None:    # each loop starts at its most upstream point: that end is the LE (issue 24)
-        pts = [np.roll(p, -int(np.argmin(p @ flow)), axis=0) for p in pts]
+        from bladerecon.core.reconstruct import start_upstream
+        pts = start_upstream(pts, flow)
         measured_start = True
     seg_info = None
     if getattr(args, "segmented", False):

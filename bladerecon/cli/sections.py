@@ -155,11 +155,24 @@ def _run(args, offsets, throat, plots, fractions=()) -> list:
 
     _say(args, f"reading {args.input}")
     pts, axis, _ = _read_sections(args.input)
-    blade = segment_blade(pts, axis, throat=throat, max_gap=args.max_gap, flow=getattr(args, "flow", None))
+    flow = getattr(args, "flow", None)
+    blade = segment_blade(pts, axis, throat=throat, max_gap=args.max_gap, flow=flow)
+    nom_pts = nominal_blade = None
+    if args.nominal:
+        _say(args, f"nominal {args.nominal}")
+        nom_pts = _nominal_sections(args, blade.sections, axis)     # cut in the measured sections' planes
+        if flow is None:
+            # no flow given: the nominal decides, each measured LE the end nearest the nominal's
+            # LE, and the nominal's LE is its blunter end on most sections, judged on exact
+            # geometry that wear, damage and noise cannot swap (issue 24 §1)
+            nominal_blade = segment_blade(nom_pts, axis, throat=throat)
+            blade = segment_blade(pts, axis, throat=throat, max_gap=args.max_gap,
+                                  le_points=[s.lift(s.le)[0] for s in nominal_blade.sections])
+            _say(args, "leading edge from the nominal (its blunter end on most sections); "
+                       "give --flow X,Y,Z to be sure")
     if blade.warning:
         _say(args, f"warning: {blade.warning}")
     segs = blade.sections
-    flow = getattr(args, "flow", None)
     params = [measure_section(s, offsets, strict_radius=not args.lenient, fractions=fractions) for s in segs]
     out = [{**p.as_dict(), "le_rule": blade.le_rule, "stacking": st}
            for p, st in zip(params, stacking(params, axis, flow))]
@@ -167,15 +180,12 @@ def _run(args, offsets, throat, plots, fractions=()) -> list:
         for o in out:
             o["warnings"] = [blade.warning, *o["warnings"]]
     if args.nominal:
-        _say(args, f"nominal {args.nominal}")
-        nom_pts = _nominal_sections(args, segs, axis)
-        nsegs = []
-        hint = None
-        for k, (s, q) in enumerate(zip(segs, nom_pts)):
+        if nominal_blade is not None:
+            nsegs = nominal_blade.sections
+        else:                       # --flow: the nominal's LE is its upstream end too
             from bladerecon.core.sections.segmentation import segment_section
-            # the nominal's LE is the end nearest the measured LE
-            ns = segment_section(canonical_loop(q, axis), k, axis, le_hint=s.lift(s.le)[0], throat=throat, flow=flow)
-            nsegs.append(ns)
+            nsegs = [segment_section(canonical_loop(q, axis), k, axis, le_hint=s.lift(s.le)[0], throat=throat,
+                                     flow=flow) for k, (s, q) in enumerate(zip(segs, nom_pts))]
         nparams = [measure_section(s, offsets, strict_radius=not args.lenient, fractions=fractions) for s in nsegs]
         out = [compare_with_nominal(o, n.as_dict()) for o, n in zip(out, nparams)]
     else:

@@ -86,6 +86,13 @@ def first_point_edge_hint(points: np.ndarray) -> np.ndarray | None:
     return None
 
 
+def start_upstream(section_points: list[np.ndarray], flow: np.ndarray) -> list[np.ndarray]:
+    """Each closed loop rolled to start at its most upstream point (least along ``flow``, the
+    direction the fluid travels): that end is the LE for ``first_point_is_measured`` (issue 24)."""
+    f = np.asarray(flow, float)
+    return [np.roll(p, -int(np.argmin(np.asarray(p, float) @ f)), axis=0) for p in section_points]
+
+
 def reconstruct(section_points: list[np.ndarray], span_axis: np.ndarray, method: str = "auto",
                 tolerance: float | None = None, refit_tol: float | None = None,
                 first_point_is_measured: bool = True) -> Reconstruction:

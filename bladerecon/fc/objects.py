@@ -257,9 +257,17 @@ class SectionParameters:
     inlet_angle_deg: np.ndarray
     outlet_angle_deg: np.ndarray
     warnings: tuple[str, ...]
+    le_rule: str = "first_point"    # how the LE was chosen (core.sections.parameters.LE_RULES)
 
 
-def section_parameters(section_set) -> SectionParameters:
+def flow_of(obj: Any) -> np.ndarray | None:
+    """The object's ``FlowDirection`` as a unit vector, or None when it is (0,0,0) (not known)."""
+    v = np.array(tuple(getattr(obj, "FlowDirection", (0.0, 0.0, 0.0))), float)
+    n = float(np.linalg.norm(v))
+    return v / n if n > 1e-12 else None
+
+
+def section_parameters(section_set, flow: np.ndarray | None = None) -> SectionParameters:
     """Section curves, LE/TE and parameters of every section of a
     :class:`~bladerecon.core.sections.ordering.SectionSet`.
 
@@ -267,16 +275,19 @@ def section_parameters(section_set) -> SectionParameters:
     or smoothing, chosen from spacing against noise); segmentation and parameters by
     :func:`bladerecon.core.sections.parameters.segment_sections` / ``measure_section`` (LE/TE
     from the curvature peaks, the LE chained from the first section's measured start). An
-    edge too sparse for a radius gives NaN and a warning, not a failure.
+    edge too sparse for a radius gives NaN and a warning, not a failure. ``flow`` (the
+    direction the fluid travels): every LE is its section's upstream end; without it the LE
+    is guessed by one rule for the whole blade, and the guess is among the warnings.
     """
     from bladerecon.core.reconstruct import _fit_sections
     from bladerecon.core.surface.section_curves import choose_method
-    from bladerecon.core.sections.parameters import measure_section, segment_sections
+    from bladerecon.core.sections.parameters import measure_section, segment_blade
 
     pts = [s.points for s in section_set.sections]
     curves = _fit_sections(pts, choose_method(pts), None)
-    segs = segment_sections(pts, section_set.span_axis, not section_set.sections[0].reordered)
-    measured = [measure_section(seg, strict_radius=False) for seg in segs]
+    blade = segment_blade(pts, section_set.span_axis, not section_set.sections[0].reordered, flow=flow,
+                          canonical=False)
+    measured = [measure_section(seg, strict_radius=False) for seg in blade.sections]
 
     def column(name: str) -> np.ndarray:
         return np.array([np.nan if getattr(m, name) is None else float(getattr(m, name)) for m in measured])
@@ -287,7 +298,9 @@ def section_parameters(section_set) -> SectionParameters:
         np.array([s.reordered for s in section_set.sections]), section_set.span_axis,
         column("stagger_deg"), column("max_thickness"), column("max_thickness_pos"), column("le_radius"),
         column("te_radius"), column("inlet_angle_deg"), column("outlet_angle_deg"),
-        tuple(f"{s.name}: {w}" for s, m in zip(section_set.sections, measured) for w in m.warnings))
+        ((blade.warning,) if blade.warning else ())
+        + tuple(f"{s.name}: {w}" for s, m in zip(section_set.sections, measured) for w in m.warnings),
+        blade.le_rule)
 
 
 class BladeSections(_Feature):
@@ -296,6 +309,10 @@ class BladeSections(_Feature):
     TYPE = "BladeSections"
     PROPERTIES = (
         ("App::PropertyLink", "Points", "Input", "MeasuredPoints to segment", 0),
+        ("App::PropertyVector", "FlowDirection", "Input",
+         "direction the fluid travels: each LE is its section's upstream end; (0,0,0): not known, the LE is guessed", 0),
+        ("App::PropertyString", "LERule", "Sections",
+         "how the LE was chosen: flow (FlowDirection), first_point or blunter_edge (guesses)", 1),
         ("App::PropertyStringList", "SectionNames", "Sections", "names, hub to tip", 1),
         ("App::PropertyVectorList", "LeadingEdges", "Sections", "LE point of each section (mm)", 1),
         ("App::PropertyVectorList", "TrailingEdges", "Sections", "TE point of each section (mm)", 1),
@@ -317,7 +334,7 @@ class BladeSections(_Feature):
 
         from bladerecon.fc.convert import to_part_curve
 
-        params = section_parameters(build_sections(_linked_points(obj)))
+        params = section_parameters(build_sections(_linked_points(obj)), flow_of(obj))
         edges = [Part.Edge(to_part_curve(c)) for c in params.curves]
         marks = [Part.Vertex(FreeCAD.Vector(*p)) for p in np.vstack([params.leading_edge, params.trailing_edge])]
         obj.Shape = compound(edges + marks)
@@ -333,6 +350,7 @@ class BladeSections(_Feature):
                              ("OutletAngle", params.outlet_angle_deg)):
             setattr(obj, prop, [float(v) for v in values])
         obj.Warnings = list(params.warnings)
+        obj.LERule = params.le_rule
 
 
 def make_blade_sections(doc: Any, points_obj: Any, name: str = "BladeSections") -> Any:
@@ -351,6 +369,8 @@ class BladeSurface(_Feature):
     TYPE = "BladeSurface"
     PROPERTIES = (
         ("App::PropertyLink", "Points", "Input", "MeasuredPoints to reconstruct", 0),
+        ("App::PropertyVector", "FlowDirection", "Input",
+         "direction the fluid travels: the surface's seam starts at the upstream edge; (0,0,0): not known", 0),
         ("App::PropertyEnumeration", "Method", "Reconstruction",
          "auto: interpolate or smooth, chosen from point spacing against noise", 0),
         ("App::PropertyFloat", "Tolerance", "Reconstruction",
@@ -376,7 +396,7 @@ class BladeSurface(_Feature):
 
     def compute(self, obj: Any) -> str | None:
         from bladerecon.core.geometry.projection import project_points_to_surface
-        from bladerecon.core.reconstruct import reconstruct
+        from bladerecon.core.reconstruct import reconstruct, start_upstream
         from bladerecon.core.sections.ordering import build_sections
 
         from bladerecon.fc.convert import make_face
@@ -387,9 +407,13 @@ class BladeSurface(_Feature):
         with _Progress(f"{obj.Label}: reconstructing", 3) as progress:
             sections = build_sections(_linked_points(obj))
             pts = [s.points for s in sections.sections]
+            measured_start = not sections.sections[0].reordered
+            flow = flow_of(obj)
+            if flow is not None:
+                pts, measured_start = start_upstream(pts, flow), True
             progress.step()
             rec = reconstruct(pts, sections.span_axis, method=obj.Method, tolerance=tolerance,
-                              first_point_is_measured=not sections.sections[0].reordered)
+                              first_point_is_measured=measured_start)
             progress.step()
             proj = project_points_to_surface(rec.surface, np.concatenate(pts), rec.point_u, rec.point_v)
             progress.step()

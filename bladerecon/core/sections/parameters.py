@@ -594,9 +594,9 @@ def compare_with_nominal(measured: dict, nominal: dict) -> dict:
 
 
 #: how the leading edge was chosen (``"le_rule"`` in the JSON): the flow direction given;
-#: the end where the file's first point lies (a guess); the blunter end by a vote of all
+#: the end nearest the nominal's LE in the same section; the end where the file's first point lies (a guess); the blunter end by a vote of all
 #: sections (a guess)
-LE_RULES = ("flow", "first_point", "blunter_edge")
+LE_RULES = ("flow", "nominal", "first_point", "blunter_edge")
 
 
 @dataclass(frozen=True)
@@ -637,7 +637,8 @@ def _region_mean_curvature(seg: Segmentation, region: int) -> float:
 
 def segment_blade(section_points: list[np.ndarray], span_axis: np.ndarray | None = None,
                   first_point_is_measured: bool = False, throat=None, max_gap: float | None = None,
-                  flow: np.ndarray | None = None, canonical: bool = True) -> BladeSegmentation:
+                  flow: np.ndarray | None = None, canonical: bool = True,
+                  le_points: list[np.ndarray] | None = None) -> BladeSegmentation:
     """Segment every section with one leading-edge rule for the whole blade (issue 24 §1).
 
     ``flow`` (3D direction the fluid travels): the LE of every section is its upstream end.
@@ -645,7 +646,9 @@ def segment_blade(section_points: list[np.ndarray], span_axis: np.ndarray | None
     point lies the LE (when it lies at an end), and otherwise all sections vote: the LE is
     the end that is blunter (lower mean curvature over its edge region) on most sections.
     Every further section takes the end nearest the previous LE, so no section is turned
-    the other way. ``canonical``: measure each loop from :func:`canonical_loop` (figures
+    the other way. ``le_points`` (one 3D point per section, e.g. the nominal's LE in the
+    same section; used when no ``flow`` is given): each section's LE is its end nearest
+    that point (rule ``"nominal"``). ``canonical``: measure each loop from :func:`canonical_loop` (figures
     independent of the start point and direction).
     """
     from bladerecon.core.reconstruct import first_point_edge_hint
@@ -658,6 +661,10 @@ def segment_blade(section_points: list[np.ndarray], span_axis: np.ndarray | None
             raise BladeReconError(f"flow direction {f.tolist()}: give three numbers X,Y,Z, not all zero")
         flow = f / np.linalg.norm(f)
         rule, warning = "flow", None
+    elif le_points is not None:
+        if len(le_points) != len(section_points):
+            raise BladeReconError(f"{len(le_points)} leading-edge points for {len(section_points)} sections")
+        rule, warning = "nominal", None
     elif hint is not None:
         rule = "first_point"
         warning = ("leading edge guessed: the end where the first section's first point lies; "
@@ -671,6 +678,8 @@ def segment_blade(section_points: list[np.ndarray], span_axis: np.ndarray | None
     def run(first_hint):
         out, h = [], first_hint
         for k, p in enumerate(loops):
+            if rule == "nominal":
+                h = np.asarray(le_points[k], float)
             seg = segment_section(p, k, span_axis, le_hint=h, throat=throat, max_gap=max_gap, flow=flow)
             h = seg.lift(seg.le)[0]
             out.append(seg)
