@@ -56,6 +56,10 @@ def add_parser(sub) -> None:
     d.add_argument("--span-axis", choices=("x", "y", "z"), default="z", help="axis of --span-range (default z)")
     d.add_argument("--crop-to-nominal", action="store_true",
                    help="leave out points outside the nominal's bounding box grown by 1 mm (counted)")
+    from bladerecon.core.io.memory import memory_limit
+    d.add_argument("--memory-limit", type=memory_limit, metavar="GB",
+                   help="memory budget (default half the memory available at start): a job whose estimated "
+                        "need is larger is refused before the nominal is read")
     d.add_argument("--json", action="store_true", help="print one JSON summary object to stdout")
     d.add_argument("--quiet", action="store_true", help="no progress messages on stderr")
     one_line_errors(d)
@@ -130,6 +134,9 @@ def _run(args: argparse.Namespace, temps: dict) -> dict:
         section, names = None, ()
     else:
         points, section, names = _read_measured(args.measured)
+    from bladerecon.core.io.memory import check_budget, deviation_need
+    check_budget(f"deviation of {len(points)} points", deviation_need(len(points)),
+                 getattr(args, "memory_limit", None), "split the point file, or raise --memory-limit")
     _say(args, f"{len(points)} points; reading nominal {args.nominal}")
     nominal = load_nominal(args.nominal)
     points, section, crop = _crop(args, points, section, nominal)

@@ -16,6 +16,8 @@ from bladerecon.core.geometry.projection.restarts import _more_starts, _turn_sta
 __all__ = ["_search", "_first_feet", "_MIN_BATCH", "_TURN"]
 
 _MIN_BATCH = 4096           # suspects are searched in blocks of at least this many
+_MAX_BATCH = 8_192         # ... and at most this many: a suspect holds up to _N_WIDE candidate
+                            # samples (~2.5 kB in all), so this bounds their memory (issue 23 §4)
 _TURN = 0.25                # distance x curvature above this: try feet moved round the edge
 
 
@@ -61,7 +63,8 @@ def _search(grid: _StartGrid, solve, start_at, turn, P: np.ndarray, noise: float
             _more_starts(grid, solve, turn, np.ascontiguousarray(P[r].T), sub, noise, workers)
             feet.put(r, sub)
 
-        _for_each_block(rows.size, more, max(_MIN_BATCH, -(-rows.size // parallel._THREADS)), shared=True)
+        batch = min(_MAX_BATCH, max(_MIN_BATCH, -(-rows.size // parallel._THREADS)))
+        _for_each_block(rows.size, more, batch, shared=True)
     turned = np.flatnonzero(feet.bend > _TURN)
     if turned.size:
         sub = feet.take(turned)
