@@ -139,6 +139,10 @@ def _run(args: argparse.Namespace, temps: dict) -> dict:
                  getattr(args, "memory_limit", None), "split the point file, or raise --memory-limit")
     _say(args, f"{len(points)} points; reading nominal {args.nominal}")
     nominal = load_nominal(args.nominal)
+    from bladerecon.fc.deviation import blade_like_warning
+    nominal_warning = blade_like_warning(nominal)
+    if nominal_warning:         # a warning, not a refusal: a user may compare with any shape on purpose
+        _say(args, f"warning: {nominal_warning}")
     points, section, crop = _crop(args, points, section, nominal)
     t_read = time.perf_counter()
     if args.align != "none":
@@ -164,6 +168,8 @@ def _run(args: argparse.Namespace, temps: dict) -> dict:
     }
     if crop is not None:
         summary["cropped"] = crop
+    if nominal_warning:
+        summary["nominal"]["warning"] = nominal_warning
     if args.csv:
         write_deviation_csv(temps["csv"], res.points, res.deviation)
     if args.aligned:

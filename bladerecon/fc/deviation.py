@@ -259,6 +259,40 @@ def load_nominal(nominal: Any) -> Nominal:
 
 
 # --------------------------------------------------------------------------- checks
+_GRID = 33     # points a side of each face's parameter grid for blade_like_warning
+
+
+def blade_like_warning(nominal: Nominal) -> str | None:
+    """One line when the nominal does not look like a blade (its two opposite-facing sheets lie
+    far apart for its size: a box, a cylinder given by mistake), else None. Judged on a
+    _GRID x _GRID grid of points over each face's parameter range, triangulated (a mesh of
+    the shape by OCC takes up to a minute on a 1500 x 16-pole face)."""
+    from bladerecon.core.analysis.plausibility import BLADE_WALL_RATIO, wall_ratio
+
+    verts, tris = [], []
+    for face in nominal.shape.Faces:
+        try:
+            u0, u1, v0, v1 = face.ParameterRange
+            us, vs = np.linspace(u0, u1, _GRID), np.linspace(v0, v1, _GRID)
+            P = np.array([tuple(face.valueAt(u, v)) for u in us for v in vs])
+        except Exception:                   # a face OCC cannot evaluate: judged without it
+            continue
+        k = np.arange(_GRID * _GRID).reshape(_GRID, _GRID)
+        a, b, c, d = k[:-1, :-1].ravel(), k[1:, :-1].ravel(), k[1:, 1:].ravel(), k[:-1, 1:].ravel()
+        t = np.concatenate([np.column_stack([a, b, c]), np.column_stack([a, c, d])])
+        if face.Orientation == "Reversed":
+            t = t[:, ::-1]
+        tris.append(t + sum(len(x) for x in verts))
+        verts.append(P)
+    if not verts:
+        return None
+    ratio = wall_ratio(np.vstack(verts), np.vstack(tris))
+    if not ratio > BLADE_WALL_RATIO:
+        return None
+    return (f"the nominal does not look like a blade: its opposite walls lie {ratio * 100:.0f} % of its size "
+            f"apart (a blade's: under {BLADE_WALL_RATIO * 100:.0f} %); check --nominal")
+
+
 def check_units(points: np.ndarray, nominal: Nominal, source: str = "the points") -> None:
     """Refuse points far from every face (wrong units or frame), saying which is likely.
 

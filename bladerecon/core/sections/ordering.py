@@ -112,8 +112,8 @@ def build_sections(pointset: PointSet, *, min_points: int = 5) -> SectionSet:
 
     Raises:
         BladeReconError: repeated points, a section with fewer than ``min_points``
-            points, fewer than 2 sections, sections out of span order, a section with no
-            area, or a section that crosses itself.
+            points, fewer than 2 sections, sections out of span order, neighbouring
+            sections that cross, a section with no area, or a section that crosses itself.
     """
     if min_points < 3:
         raise ValueError("min_points must be at least 3 (a closed loop)")
@@ -136,6 +136,7 @@ def build_sections(pointset: PointSet, *, min_points: int = 5) -> SectionSet:
                               "more sections")
 
     span_axis = _span_axis(src, groups)
+    _check_no_crossing(src, groups, span_axis)
     sections = []
     for k, (name, pts, lines) in enumerate(groups):
         origin, e1, e2 = section_plane_frame(pts, span_axis)
@@ -202,6 +203,39 @@ def _span_axis(src: str, groups: list) -> np.ndarray:
         f"{src}: sections given in the wrong order: section '{names[k]}' (lines "
         f"{lines.min()}–{lines.max()}) lies {where} along the span; list sections from hub to "
         "tip")
+
+
+def _plane(pts: np.ndarray, span_axis: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """Best-fit plane of a section: centroid, unit normal along +span, rms out of plane."""
+    c = pts.mean(axis=0)
+    _, sv, vt = np.linalg.svd(pts - c, full_matrices=False)
+    n = vt[-1] if vt[-1] @ span_axis >= 0 else -vt[-1]
+    return c, n, float(sv[-1] / np.sqrt(len(pts)))
+
+
+def _check_no_crossing(src: str, groups: list, span_axis: np.ndarray) -> None:
+    """Neighbouring sections must not cross: no point of a section on the hub side of the
+    plane of the section before it, nor on the tip side of the plane of the section after
+    it, beyond 3 x the planes' rms out-of-plane + 1 µm (noise, stream-surface sections). A
+    surface lofted through crossing sections folds over itself (issue 23 §6)."""
+    planes = [_plane(pts, span_axis) for _, pts, _ in groups]
+    for k in range(len(groups) - 1):
+        (na, pa, la), (nb, pb, lb) = groups[k], groups[k + 1]
+        (ca, ua, ra), (cb, ub, rb) = planes[k], planes[k + 1]
+        tol = 3.0 * max(ra, rb) + 0.001
+        below = float(((pb - ca) @ ua).min())        # section b's lowest point over a's plane
+        above = float(((pa - cb) @ ub).max())        # section a's highest point over b's plane
+        if below < -tol or above > tol:
+            if below < -tol:
+                j = int(np.argmin((pb - ca) @ ua))
+                what = (f"section '{nb}' (line {int(lb[j])}) reaches {-below:.3f} mm below the plane of "
+                        f"section '{na}'")
+            else:
+                j = int(np.argmax((pa - cb) @ ub))
+                what = (f"section '{na}' (line {int(la[j])}) reaches {above:.3f} mm above the plane of "
+                        f"section '{nb}'")
+            raise BladeReconError(f"{src}: sections '{na}' and '{nb}' cross: {what}; a surface through them "
+                                  "would fold: check the section labels and planes")
 
 
 def _increasing_run(t: np.ndarray) -> list[int]:
