@@ -43,7 +43,8 @@ def _crossing_file(path):
     R = np.array([[1, 0, 0], [0, np.cos(a), -np.sin(a)], [0, np.sin(a), np.cos(a)]])
     p = (p - c) @ R.T + c + [0.0, 0.0, 79.0 - c[2]]
     rows[s3, 1:] = p
-    path.write_text("section,x,y,z\n" + "".join(f"{int(r[0])},{r[1]!r},{r[2]!r},{r[3]!r}\n" for r in rows))
+    path.write_text("section,x,y,z\n" + "".join(f"{int(r[0])},{float(r[1])!r},{float(r[2])!r},{float(r[3])!r}\n"
+                                              for r in rows))
 
 
 @pytest.mark.parametrize("command", [["reconstruct", "{d}/cross.csv", "-o", "{o}/x.step", "--quiet"],

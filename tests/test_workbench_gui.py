@@ -486,13 +486,19 @@ with part("report"):
     # Yes, then Esc once FreeCAD's progress bar has been up for a second (as a user who sees
     # the work start; a fixed delay from the click raced the dialogs on a loaded machine), and
     # Yes to "abort?": cancelled, the old report kept
-    busy_since = []
+    # Esc again every 0.5 s until FreeCAD asks "abort?" (a key press can be lost on a loaded
+    # machine, as a user's can, and a user presses again), never while a dialog is up
+    busy_since, esc_sent = [], []
     def escape_when_busy():
         if not any(b.isVisible() for b in mw.statusBar().findChildren(W.QProgressBar)):
             return
-        busy_since.append(time.time())
-        if busy_since[-1] - busy_since[0] >= 1.0:
-            esc_timer.stop()
+        if W.QApplication.activeModalWidget() is not None:
+            esc_timer.stop()                 # the "abort?" question: the answers press Yes
+            return
+        now = time.time()
+        busy_since.append(now)
+        if now - busy_since[0] >= 1.0 and (not esc_sent or now - esc_sent[-1] >= 0.5):
+            esc_sent.append(now)
             target = W.QApplication.focusWidget() or mw
             for kind in (QtCore.QEvent.KeyPress, QtCore.QEvent.KeyRelease):
                 W.QApplication.postEvent(target, QtGui.QKeyEvent(kind, QtCore.Qt.Key_Escape, QtCore.Qt.NoModifier))
@@ -504,6 +510,7 @@ with part("report"):
     seen = run("BladeRecon_WriteReport", [choose(OUT), press("Yes"), press("Yes")])
     esc_timer.stop()
     result["report_cancel"] = {"dialogs": seen, "seconds": round(time.time() - t, 2), "report_view": rep.new(),
+                               "esc_sent_after_s": [round(x - t, 2) for x in esc_sent],
                                "unchanged": os.path.getmtime(os.path.join(folder, "summary.json")) == stamp,
                                "files": sorted(os.path.basename(p) for p in glob.glob(os.path.join(OUT, "*report*")))}
     result["timings"]["write report, cancelled (Esc 1 s into the work, to control back)"] = result["report_cancel"]["seconds"]
