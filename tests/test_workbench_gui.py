@@ -492,7 +492,7 @@ with part("report"):
     def escape_when_busy():
         if not any(b.isVisible() for b in mw.statusBar().findChildren(W.QProgressBar)):
             return
-        if W.QApplication.activeModalWidget() is not None:
+        if any(isinstance(w, W.QMessageBox) and w.isVisible() for w in W.QApplication.topLevelWidgets()):
             esc_timer.stop()                 # the "abort?" question: the answers press Yes
             return
         now = time.time()
