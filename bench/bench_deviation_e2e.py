@@ -46,26 +46,10 @@ from bladerecon.fc.freecad_env import import_freecad  # noqa: E402
 sys.path.insert(0, str(ROOT / "tests"))
 from memory_probe import peak_memory  # noqa: E402
 
+sys.path.insert(0, str(BENCH))
+from bench_deviation import area_points  # noqa: E402  (points spread over a shape's area)
+
 FreeCAD, Part = import_freecad()
-
-
-def area_points(shape, m: int, rng: np.random.Generator, spread: float = 0.05) -> np.ndarray:
-    """m points spread evenly over the shape's area (a fine tessellation), pushed off along the
-    triangle normals by N(0, spread) mm."""
-    import MeshPart
-
-    mesh = MeshPart.meshFromShape(Shape=shape, LinearDeflection=0.005, AngularDeflection=0.2, Relative=False)
-    pts, facets = mesh.Topology
-    V = np.array([(p.x, p.y, p.z) for p in pts])
-    T = np.array(facets)
-    A, B, C = V[T[:, 0]], V[T[:, 1]], V[T[:, 2]]
-    n = np.cross(B - A, C - A)
-    area = np.linalg.norm(n, axis=1)
-    n /= np.maximum(area, 1e-300)[:, None]
-    k = rng.choice(len(T), m, p=area / area.sum())
-    r1, r2 = np.sqrt(rng.random(m)), rng.random(m)
-    P = (1 - r1)[:, None] * A[k] + (r1 * (1 - r2))[:, None] * B[k] + (r1 * r2)[:, None] * C[k]
-    return P + n[k] * rng.normal(scale=spread, size=(m, 1))
 
 
 # A small launcher runs the command as its child and reports the children's peak RSS: measured

@@ -32,11 +32,10 @@ import numpy as np
 BENCH = Path(__file__).resolve().parent
 sys.path.insert(0, str(BENCH.parent))
 
-from bladerecon.core.geometry.projection import project_points_to_surface  # noqa: E402
 from bladerecon.core.repair import repair_target  # noqa: E402
 from bladerecon.samples.blade import nominal_surface  # noqa: E402
-from bladerecon.samples.damaged import (ServiceDamage, damage_depth, damaged_cloud, damaged_sections,  # noqa: E402
-                                        true_missing_volume, true_point)
+from bladerecon.samples.damaged import (ServiceDamage, damaged_cloud, damaged_sections,  # noqa: E402
+                                        true_missing_volume, truth_errors)
 
 CASES = {
     "A: twist 0.3°, bend 0.18 mm, tip 2.5 mm": ServiceDamage(),
@@ -49,15 +48,6 @@ CASES = {
 }
 
 
-def _distances(sd, surface):
-    h = np.linspace(0.0, 1.0, 81)
-    t = np.linspace(0.0, 1.0, 300, endpoint=False)
-    H, T = np.meshgrid(h, t, indexing="ij")
-    damaged = (damage_depth(sd, H, T) > 0.001) | (sd.blade.z_of(H) > sd.cut_z)
-    d = project_points_to_surface(surface, true_point(sd, H, T).reshape(-1, 3)).distance.reshape(H.shape)
-    return d, damaged
-
-
 def run_case(name: str, sd: ServiceDamage, how: str) -> dict:
     nom = nominal_surface(sd.blade)
     if how == "cloud":
@@ -68,8 +58,8 @@ def run_case(name: str, sd: ServiceDamage, how: str) -> dict:
     t0 = time.perf_counter()
     res = repair_target(P, nom, 1.0, section=labels)
     seconds = time.perf_counter() - t0
-    d, damaged = _distances(sd, res.target)
-    dn, _ = _distances(sd, res.naive)
+    d, damaged = truth_errors(sd, res.target)
+    dn, _ = truth_errors(sd, res.naive)
     truth = true_missing_volume(sd)["total_mm3"]
     return {"case": name, "measured": how, "points": int(len(P)),
             "target_damaged_max_mm": float(d[damaged].max()), "naive_damaged_max_mm": float(dn[damaged].max()),

@@ -83,13 +83,13 @@ def test_flow_direction_puts_every_leading_edge_upstream(tmp_path):
     writes them). FlowDirection (1,0,0), the sample's axial direction: every LE within 0.02 mm
     of the analytic LE and LERule "flow" with no guess warning; (-1,0,0): every LE at the
     analytic TE, so the property, not the data, decides; and the surface takes it too."""
+    from section_files import write_sections_csv
     from test_section_invariance import BLADES, _te_first, _truth_le
 
     blade = BLADES["small"]
     secs = _te_first(blade, 6, 240)
     f = tmp_path / "te_first.csv"
-    f.write_text("section,x,y,z\n" + "".join(f"{k},{float(x)!r},{float(y)!r},{float(z)!r}\n"
-                                              for k, p in enumerate(secs) for x, y, z in p))
+    write_sections_csv(f, secs)
     from bladerecon.samples.blade import section_heights
     truth_le = np.array(_truth_le(blade, 6))
     truth_te = np.array([blade.le_te(h)[1] for h in section_heights(6)])

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import pytest
 
+from section_files import write_sections_csv
 from test_hostile_inputs import data, out, refused  # noqa: F401  (fixtures)
 
 REC = ["reconstruct", "{d}/m.csv", "--quiet"]
@@ -43,8 +44,7 @@ def _crossing_file(path):
     R = np.array([[1, 0, 0], [0, np.cos(a), -np.sin(a)], [0, np.sin(a), np.cos(a)]])
     p = (p - c) @ R.T + c + [0.0, 0.0, 79.0 - c[2]]
     rows[s3, 1:] = p
-    path.write_text("section,x,y,z\n" + "".join(f"{int(r[0])},{float(r[1])!r},{float(r[2])!r},{float(r[3])!r}\n"
-                                              for r in rows))
+    write_sections_csv(path, [rows[rows[:, 0] == k, 1:] for k in range(int(rows[:, 0].max()) + 1)])
 
 
 @pytest.mark.parametrize("command", [["reconstruct", "{d}/cross.csv", "-o", "{o}/x.step", "--quiet"],

@@ -18,11 +18,10 @@ import numpy as np
 import pytest
 
 from bladerecon.core.errors import BladeReconError
-from bladerecon.core.geometry.projection import project_points_to_surface
 from bladerecon.core.repair import repair_target
 from bladerecon.samples.blade import SampleBlade, nominal_surface
-from bladerecon.samples.damaged import (ServiceDamage, damage_depth, damaged_cloud, damaged_sections,
-                                        true_missing_volume, true_point)
+from bladerecon.samples.damaged import (ServiceDamage, damaged_cloud, damaged_sections,
+                                        true_missing_volume, truth_errors)
 
 ROOT = Path(__file__).resolve().parents[1]
 NOISE = 0.002
@@ -48,27 +47,16 @@ def sections_result(case):
     return repair_target(np.concatenate(secs), nom, 1.0, section=labels)
 
 
-def _truth_errors(sd: ServiceDamage, surface) -> tuple[np.ndarray, np.ndarray]:
-    """Distance (mm) of the true deformed blade to ``surface`` on a (h, t) grid, and the mask
-    of damaged places (damage depth > 1 µm, or above the tip cut)."""
-    h = np.linspace(0.0, 1.0, 81)
-    t = np.linspace(0.0, 1.0, 300, endpoint=False)
-    H, T = np.meshgrid(h, t, indexing="ij")
-    damaged = (damage_depth(sd, H, T) > 0.001) | (sd.blade.z_of(H) > sd.cut_z)
-    d = project_points_to_surface(surface, true_point(sd, H, T).reshape(-1, 3)).distance.reshape(H.shape)
-    return d, damaged
-
-
 @pytest.mark.timeout(240)
 def test_cloud_target_matches_the_true_deformed_blade(case, cloud_result):
     sd, _ = case
-    d, damaged = _truth_errors(sd, cloud_result.target)
+    d, damaged = truth_errors(sd, cloud_result.target)
     assert damaged.sum() > 100
     assert d[damaged].max() < 0.02            # over the damaged regions (issue: within 0.02 mm)
     assert d[~damaged].max() < 3 * NOISE      # elsewhere within the noise
     blend = cloud_result.blend
     assert blend["band_mm"] >= 2.0 and blend["max_curvature_jump"] < 0.05     # 1/mm; the TE circle is ~2 1/mm
-    naive, _ = _truth_errors(sd, cloud_result.naive)
+    naive, _ = truth_errors(sd, cloud_result.naive)
     assert naive[damaged].max() > 5 * d[damaged].max()   # the naive target misses by far more
 
 
@@ -99,7 +87,7 @@ def test_sections_twist_and_target(case, sections_result):
     sd, _ = case
     assert sections_result.mode == "sections"
     assert abs(sections_result.deformation["twist_deg_at_tip"] - sd.twist_tip_deg) < 0.02
-    d, damaged = _truth_errors(sd, sections_result.target)
+    d, damaged = truth_errors(sd, sections_result.target)
     assert d[damaged].max() < 0.02
     assert sections_result.target_vs_measured["rms"] < 2 * NOISE
 

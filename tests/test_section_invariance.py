@@ -12,6 +12,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from section_files import write_sections_csv
+
 from bladerecon.core.sections.parameters import measure_section, segment_blade
 from bladerecon.samples.blade import SampleBlade, sample_sections
 
@@ -91,8 +93,7 @@ def test_flow_puts_every_leading_edge_upstream_on_a_te_first_file(tmp_path):
     blade = BLADES["small"]
     secs = _te_first(blade, 6, 240)
     f = tmp_path / "te_first.csv"
-    f.write_text("section,x,y,z\n" + "".join(f"{k},{float(x)!r},{float(y)!r},{float(z)!r}\n" for k, p in enumerate(secs)
-                                              for x, y, z in p))
+    write_sections_csv(f, secs)
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     truth = _truth_le(blade, 6)
     for flow, rule in (("1,0,0", "flow"), (None, "blunter_edge")):
@@ -121,8 +122,7 @@ def test_flow_against_the_stream_swaps_every_section_and_a_bad_flow_is_refused(t
     for a, b in zip(fwd, back):
         assert np.linalg.norm(a.lift(a.le)[0] - b.lift(b.te)[0]) < 1e-9
     f = tmp_path / "s.csv"
-    f.write_text("section,x,y,z\n" + "".join(f"{k},{float(x)!r},{float(y)!r},{float(z)!r}\n" for k, p in enumerate(secs)
-                                              for x, y, z in p))
+    write_sections_csv(f, secs)
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     for bad in ("0,0,0", "1,0", "a,b,c"):
         r = subprocess.run([sys.executable, "-m", "bladerecon", "sections", str(f), "--flow", bad], capture_output=True,
@@ -134,8 +134,7 @@ def test_reconstruct_takes_the_flow_direction(tmp_path):
     """`reconstruct --flow`: the same TE-first file is accepted and the summary names the rule."""
     secs = _te_first(BLADES["small"], 4, 240)
     f = tmp_path / "te_first.csv"
-    f.write_text("section,x,y,z\n" + "".join(f"{k},{float(x)!r},{float(y)!r},{float(z)!r}\n" for k, p in enumerate(secs)
-                                              for x, y, z in p))
+    write_sections_csv(f, secs)
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     r = subprocess.run([sys.executable, "-m", "bladerecon", "reconstruct", str(f), "--flow", "1,0,0", "--json",
                         "--quiet"], capture_output=True, text=True, env=env, timeout=300)
@@ -151,8 +150,7 @@ def test_plan_starts_at_the_upstream_edge(tmp_path):
     blade = BLADES["small"]
     secs = _te_first(blade, 4, 3000)
     f = tmp_path / "nominal_sections.csv"
-    f.write_text("section,x,y,z\n" + "".join(f"{k},{float(x)!r},{float(y)!r},{float(z)!r}\n" for k, p in enumerate(secs)
-                                              for x, y, z in p))
+    write_sections_csv(f, secs)
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     for flow, end in (("1,0,0", 0), ("-1,0,0", 1)):
         r = subprocess.run([sys.executable, "-m", "bladerecon", "plan", str(f), f"--flow={flow}", "--json", "--quiet"],
@@ -213,8 +211,7 @@ def test_without_flow_the_nominal_names_the_leading_edge(tmp_path):
     worn = SampleBlade(te_radius_hub=0.9, te_radius_tip=0.8)
     secs = sample_sections(worn, 6, 400, "uniform", noise=0.002, seed=3)
     f = tmp_path / "worn_te.csv"
-    f.write_text("section,x,y,z\n" + "".join(f"{k},{float(x)!r},{float(y)!r},{float(z)!r}\n" for k, p in enumerate(secs)
-                                              for x, y, z in p))
+    write_sections_csv(f, secs)
     truth = np.array(_truth_le(worn, 6))
     nominal_truth = np.array(_truth_le(SampleBlade(), 6))
     env = dict(os.environ, PYTHONPATH=str(ROOT))

@@ -56,8 +56,7 @@ def add_parser(sub) -> None:
     d.add_argument("--span-axis", choices=("x", "y", "z"), default="z", help="axis of --span-range (default z)")
     d.add_argument("--crop-to-nominal", action="store_true",
                    help="leave out points outside the nominal's bounding box grown by 1 mm (counted)")
-    from bladerecon.core.io.memory import memory_limit
-    d.add_argument("--memory-limit", type=memory_limit, metavar="GB",
+    d.add_argument("--memory-limit", type=positive(1e6, "GB"), metavar="GB",
                    help="memory budget (default half the memory available at start): a job whose estimated "
                         "need is larger is refused before the nominal is read")
     d.add_argument("--json", action="store_true", help="print one JSON summary object to stdout")

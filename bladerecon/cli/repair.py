@@ -12,9 +12,7 @@ import argparse
 import sys
 import time
 
-import numpy as np
-
-from bladerecon.core.io.outputs import Outputs, check_coordinates, check_input, finite, one_line_errors, positive
+from bladerecon.core.io.outputs import Outputs, check_input, finite, one_line_errors, positive
 
 __all__ = ["add_parser", "run_repair"]
 
@@ -68,12 +66,11 @@ def run_repair(args: argparse.Namespace) -> dict:
 
 
 def _read(path: str):
-    from bladerecon.core.io.readers import read_points
+    """Points and section index per point (None for a cloud or a single section), checked."""
+    from bladerecon.cli.deviation import _read_measured
 
-    ps = read_points(path, require_sections=False)
-    check_coordinates(ps.points, ps.line, path)
-    section = np.asarray(ps.section) if ps.structured and ps.n_sections > 1 else None
-    return np.asarray(ps.points, float), section
+    points, section, names = _read_measured(path)
+    return points, (section if len(names) > 1 else None)
 
 
 def _run(args: argparse.Namespace, temps: dict) -> dict:

@@ -107,22 +107,27 @@ def _throat(args):
     return ThroatSpec(args.beta1, args.beta2, args.lift)
 
 
-def _nominal_sections(args, segs, span_axis) -> list[np.ndarray]:
+def _nominal_sections(args, section_points, span_axis) -> list[np.ndarray]:
+    """The nominal in every measured section's plane (each section's best-fit plane, as its
+    segmentation uses): a shape cut there, or a section file's nearest section."""
+    from bladerecon.core.sections.segmentation import section_frame
+
+    frames = [section_frame(np.asarray(p, float), span_axis) for p in section_points]
     if os.path.splitext(args.nominal)[1].lower() in SHAPE_SUFFIXES:
         from bladerecon.fc.slicing import cut_sections
         # the nominal's sections are about as long as the measured ones: bound the cut before OCC allocates it
-        length = 1.5 * sum(float(np.linalg.norm(np.diff(np.vstack([s.points2d, s.points2d[:1]]), axis=0), axis=1).sum())
-                           for s in segs)
+        loops = [f.to_plane(np.asarray(p, float)) for f, p in zip(frames, section_points)]
+        length = 1.5 * sum(float(np.linalg.norm(np.diff(np.vstack([q, q[:1]]), axis=0), axis=1).sum()) for q in loops)
         check_samples("--step", args.step, length, what="cutting the nominal")
-        origins = np.array([s.frame.origin for s in segs])
-        normals = np.array([s.frame.normal for s in segs])
+        origins = np.array([f.origin for f in frames])
+        normals = np.array([f.normal for f in frames])
         return cut_sections(args.nominal, origins, normals, args.step)
     pts, _, _ = _read_sections(args.nominal)
-    if len(pts) == len(segs):
+    if len(pts) == len(frames):
         return pts
     # nearest nominal section along the span axis
     h_nom = np.array([p.mean(axis=0) @ span_axis for p in pts])
-    return [pts[int(np.argmin(np.abs(h_nom - s.frame.origin @ span_axis)))] for s in segs]
+    return [pts[int(np.argmin(np.abs(h_nom - f.origin @ span_axis)))] for f in frames]
 
 
 def run_sections(args: argparse.Namespace) -> list:
@@ -156,20 +161,19 @@ def _run(args, offsets, throat, plots, fractions=()) -> list:
     _say(args, f"reading {args.input}")
     pts, axis, _ = _read_sections(args.input)
     flow = getattr(args, "flow", None)
-    blade = segment_blade(pts, axis, throat=throat, max_gap=args.max_gap, flow=flow)
-    nom_pts = nominal_blade = None
+    nom_pts = nominal_blade = le_points = None
     if args.nominal:
         _say(args, f"nominal {args.nominal}")
-        nom_pts = _nominal_sections(args, blade.sections, axis)     # cut in the measured sections' planes
+        nom_pts = _nominal_sections(args, pts, axis)      # cut in the measured sections' planes
         if flow is None:
             # no flow given: the nominal decides, each measured LE the end nearest the nominal's
             # LE, and the nominal's LE is its blunter end on most sections, judged on exact
             # geometry that wear, damage and noise cannot swap (issue 24 §1)
             nominal_blade = segment_blade(nom_pts, axis, throat=throat)
-            blade = segment_blade(pts, axis, throat=throat, max_gap=args.max_gap,
-                                  le_points=[s.lift(s.le)[0] for s in nominal_blade.sections])
+            le_points = [s.lift(s.le)[0] for s in nominal_blade.sections]
             _say(args, "leading edge from the nominal (its blunter end on most sections); "
                        "give --flow X,Y,Z to be sure")
+    blade = segment_blade(pts, axis, throat=throat, max_gap=args.max_gap, flow=flow, le_points=le_points)
     if blade.warning:
         _say(args, f"warning: {blade.warning}")
     segs = blade.sections

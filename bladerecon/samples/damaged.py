@@ -174,6 +174,20 @@ def damaged_cloud(sd: ServiceDamage, n_rows: int = 240, n_around: int = 400,
     return cloud + noise * rng.standard_normal(cloud.shape)
 
 
+def truth_errors(sd: ServiceDamage, surface) -> tuple[np.ndarray, np.ndarray]:
+    """Distance (mm) of the true deformed blade to ``surface`` (a core B-spline surface) on an
+    81 x 300 (h, t) grid, and the mask of damaged places there (damage depth > 1 µm, or above
+    the tip cut): how a repair target is judged against the truth."""
+    from bladerecon.core.geometry.projection import project_points_to_surface
+
+    h = np.linspace(0.0, 1.0, 81)
+    t = np.linspace(0.0, 1.0, 300, endpoint=False)
+    H, T = np.meshgrid(h, t, indexing="ij")
+    damaged = (damage_depth(sd, H, T) > 0.001) | (sd.blade.z_of(H) > sd.cut_z)
+    d = project_points_to_surface(surface, true_point(sd, H, T).reshape(-1, 3)).distance.reshape(H.shape)
+    return d, damaged
+
+
 def section_area(points: np.ndarray) -> float:
     """Area (mm²) enclosed by a closed planar polygon (shoelace on x, y)."""
     x, y = points[:, 0], points[:, 1]

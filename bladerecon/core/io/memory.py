@@ -9,12 +9,11 @@ and its forked workers, FreeCAD included; see ``tests/test_memory_budget.py`` an
 """
 from __future__ import annotations
 
-import argparse
 import os
 
 from bladerecon.core.errors import BladeReconError
 
-__all__ = ["available_bytes", "memory_limit", "budget_bytes", "check_budget", "deviation_need", "GB"]
+__all__ = ["available_bytes", "budget_bytes", "check_budget", "deviation_need", "GB"]
 
 GB = 1e9
 #: default budget: this share of the memory available when the command starts
@@ -41,17 +40,6 @@ def available_bytes() -> float | None:
         return float(os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
     except (OSError, ValueError, AttributeError):
         return None
-
-
-def memory_limit(text: str) -> float:
-    """argparse ``type`` of ``--memory-limit GB``: a finite number of gigabytes > 0."""
-    try:
-        value = float(text)
-    except ValueError:
-        value = float("nan")
-    if not (value > 0 and value < 1e6):
-        raise argparse.ArgumentTypeError(f"'{text[:40]}': give the memory budget in GB, a number > 0, e.g. 4")
-    return value
 
 
 def budget_bytes(limit_gb: float | None) -> tuple[float | None, str]:

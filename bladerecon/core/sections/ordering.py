@@ -223,19 +223,17 @@ def _check_no_crossing(src: str, groups: list, span_axis: np.ndarray) -> None:
         (na, pa, la), (nb, pb, lb) = groups[k], groups[k + 1]
         (ca, ua, ra), (cb, ub, rb) = planes[k], planes[k + 1]
         tol = 3.0 * max(ra, rb) + 0.001
-        below = float(((pb - ca) @ ua).min())        # section b's lowest point over a's plane
-        above = float(((pa - cb) @ ub).max())        # section a's highest point over b's plane
-        if below < -tol or above > tol:
-            if below < -tol:
-                j = int(np.argmin((pb - ca) @ ua))
-                what = (f"section '{nb}' (line {int(lb[j])}) reaches {-below:.3f} mm below the plane of "
-                        f"section '{na}'")
-            else:
-                j = int(np.argmax((pa - cb) @ ub))
-                what = (f"section '{na}' (line {int(la[j])}) reaches {above:.3f} mm above the plane of "
-                        f"section '{nb}'")
-            raise BladeReconError(f"{src}: sections '{na}' and '{nb}' cross: {what}; a surface through them "
-                                  "would fold: check the section labels and planes")
+        below = (pb - ca) @ ua              # section b's points over a's plane
+        above = (pa - cb) @ ub              # section a's points over b's plane
+        j, i = int(np.argmin(below)), int(np.argmax(above))
+        if below[j] < -tol:
+            what = f"section '{nb}' (line {int(lb[j])}) reaches {-below[j]:.3f} mm below the plane of section '{na}'"
+        elif above[i] > tol:
+            what = f"section '{na}' (line {int(la[i])}) reaches {above[i]:.3f} mm above the plane of section '{nb}'"
+        else:
+            continue
+        raise BladeReconError(f"{src}: sections '{na}' and '{nb}' cross: {what}; a surface through them "
+                              "would fold: check the section labels and planes")
 
 
 def _increasing_run(t: np.ndarray) -> list[int]:
