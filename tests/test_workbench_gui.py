@@ -94,15 +94,37 @@ class Report:
         return report_view()[self.start:]
 
 
+def modal_dialog():
+    """The modal dialog up now, or None. FreeCAD's busy progress bar is a modal widget too, but it
+    is no dialog and no answer is for it: answering it instead of the box behind it left the box
+    unanswered under load (CI, 2026-11-24)."""
+    d = W.QApplication.activeModalWidget()
+    return d if isinstance(d, W.QDialog) else None
+
+
 def task_view():
     views = [w for w in mw.findChildren(W.QWidget) if w.metaObject().className() == "Gui::TaskView::TaskView"]
     shown = [w for w in views if w.isVisible()]
     return (shown or views or [None])[0]
 
 
-def task_widget(name):
-    tv = task_view()
-    return tv.findChild(W.QWidget, name) if tv is not None else None
+def task_widget(name, wait_s=20.0):
+    """The task panel's widget ``name``; waits (pumping events) up to ``wait_s`` s for the panel to
+    show, as a user waits for it under load; if it never does, says what FreeCAD shows instead."""
+    end = time.time() + wait_s
+    while True:
+        tv = task_view()
+        w = tv.findChild(W.QWidget, name) if tv is not None else None
+        if w is not None or time.time() >= end:
+            break
+        pump(0.1)
+    if w is None:
+        dialog = FreeCADGui.Control.activeDialog()
+        raise RuntimeError(f"no task panel widget {name!r} after {wait_s} s; a task dialog is "
+                           f"{'open' if dialog else 'not open'}; selection "
+                           f"{[o.Label for o in FreeCADGui.Selection.getSelection()]}; report view ends "
+                           f"{report_view()[-400:]!r}")
+    return w
 
 
 def task_button(which):
@@ -140,7 +162,7 @@ class Answers:
         if self.handlers:
             self.timer.start(50)
     def _poll(self):
-        d = W.QApplication.activeModalWidget()
+        d = modal_dialog()
         if d is None or d is self.last or not d.isVisible():
             return
         k = self.done
@@ -270,7 +292,7 @@ _watch = {"widget": None, "since": 0.0}
 def _watchdog():
     """A modal dialog nobody answers (one the flow did not expect) is recorded and closed after
     5 s, so that the flow never hangs."""
-    d = W.QApplication.activeModalWidget()
+    d = modal_dialog()
     if d is None or d is not _watch["widget"]:
         _watch.update(widget=d, since=time.time())
         return
