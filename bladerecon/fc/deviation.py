@@ -364,25 +364,35 @@ def deviation_summary(signed: np.ndarray, tolerance: float) -> dict:
             "within_tolerance_pct": float(100.0 * np.mean(np.abs(d) <= tolerance))}
 
 
-_CSV_BLOCK = 65_536      # rows formatted at a time by write_deviation_csv
+_CSV_BLOCK = 16_384      # rows formatted at a time by write_deviation_csv
 
 
 def write_deviation_csv(path: str, points: np.ndarray, dev: PointDeviation) -> None:
-    """``x,y,z,deviation,nx,ny,nz,face`` per point (mm; face 0-based), written atomically."""
+    """``x,y,z,deviation,nx,ny,nz,face`` per point (mm; face 0-based), written atomically.
+
+    Lengths and normal components with 7 decimals (0.1 nm), formatted by numpy
+    (:mod:`bladerecon.core.io.csv_rows`: 1M rows in ~0.6 s instead of ~1.3 s); values that
+    cannot be (not finite, beyond 4.5e8 mm) are written with ``%.9g`` instead."""
     import tempfile
+
+    from bladerecon.core.io.csv_rows import can_format, format_rows
 
     path = os.path.abspath(path)
     fd, tmp = tempfile.mkstemp(prefix=".deviations-", suffix=".csv", dir=os.path.dirname(path))
     try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write("x,y,z,deviation,nx,ny,nz,face\n")
-            # one % per block of rows (not a format call per value): 1M rows in ~1.3 s instead
-            # of ~4.6 s, and the text of one block in memory at a time
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(b"x,y,z,deviation,nx,ny,nz,face\n")
             row = "%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%d\n"
-            for s in range(0, len(points), _CSV_BLOCK):
+            decimals = [7] * 7 + [0]
+            for s in range(0, len(points), _CSV_BLOCK):    # the text of one block in memory at a time
                 e = min(s + _CSV_BLOCK, len(points))
-                block = np.column_stack([points[s:e], dev.signed[s:e], dev.normal[s:e], dev.face[s:e]])
-                fh.write((row * (e - s)) % tuple(block.ravel().tolist()))
+                columns = [points[s:e, 0], points[s:e, 1], points[s:e, 2], dev.signed[s:e],
+                           dev.normal[s:e, 0], dev.normal[s:e, 1], dev.normal[s:e, 2], dev.face[s:e]]
+                if can_format(columns, decimals):
+                    fh.write(format_rows(columns, decimals))
+                else:
+                    block = np.column_stack(columns)
+                    fh.write(((row * (e - s)) % tuple(block.ravel().tolist())).encode("ascii"))
         os.chmod(tmp, 0o644)
         os.replace(tmp, path)
     except BaseException:

@@ -1,0 +1,78 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
+"""The numpy CSV row formatter (core/io/csv_rows) against Python's own ``%.*f`` and ``float``."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from bladerecon.core.io.csv_rows import can_format, format_rows
+
+
+def _python(columns, decimals) -> str:
+    return "".join(",".join("%.*f" % (d, c[i]) for c, d in zip(columns, decimals)) + "\n"
+                   for i in range(len(columns[0])))
+
+
+def _near_half(v: float, d: int) -> bool:
+    """``v * 10**d`` within a rounding error of a half: the last digit may honestly differ."""
+    x = abs(v) * 10.0 ** d
+    return abs(x - np.floor(x) - 0.5) < 1e-6 * max(1.0, x) * 1e-3 + 1e-9 * max(1.0, x)
+
+
+def _check(columns, decimals):
+    ours = format_rows(columns, decimals).decode("ascii")
+    theirs = _python(columns, decimals)
+    ours_rows, theirs_rows = ours.splitlines(), theirs.splitlines()
+    assert len(ours_rows) == len(theirs_rows) == len(columns[0])
+    for i, (a, b) in enumerate(zip(ours_rows, theirs_rows)):
+        if a == b:
+            continue
+        # a different text is allowed only at a half, one unit in the last place, and must read back
+        # within half a unit of the value
+        for k, (fa, fb, d) in enumerate(zip(a.split(","), b.split(","), decimals)):
+            if fa == fb or (fb == "-" + fa and float(fa) == 0.0):      # no "-0.000": by design
+                continue
+            v = float(columns[k][i])
+            assert _near_half(v, d) and abs(float(fa) - v) <= 0.5 * 10.0 ** -d + 2 * np.spacing(abs(v)) + 1e-15, (i, k, fa, fb, v)
+
+
+def test_edge_values_read_as_python_writes_them():
+    v = np.array([0.0, -0.0, 1.5, -1.5, 123.4567891234, -4e-8, -6e-8, 9.99999996, -1000.25, 7.0,
+                  99.99999999, -0.5, 1e8, -123456789.0, 10.0, 100.0, 1000.0, 9.0, 99.0, 999.0])
+    _check([v, -v, np.arange(len(v))], [7, 3, 0])
+    # what rounds to zero is written without a sign, as a measurement table shows it
+    assert format_rows([np.array([-4e-8])], [7]) == b"0.0000000\n"
+
+
+def test_a_deviation_sized_table_matches_python_row_by_row():
+    rng = np.random.default_rng(7)
+    n = 20_000
+    columns = [rng.normal(scale=s, size=n) for s in (30, 30, 300, 0.05, 1, 1, 1)] + [rng.integers(0, 7, n)]
+    _check(columns, [7] * 7 + [0])
+    text = format_rows(columns, [7] * 7 + [0])
+    back = np.loadtxt(text.decode().splitlines(), delimiter=",")
+    assert np.abs(back[:, :7] - np.column_stack(columns[:7])).max() <= 0.5e-7 + 1e-12
+    assert np.array_equal(back[:, 7], columns[7])
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.floats(min_value=-4e8, max_value=4e8, allow_nan=False, allow_infinity=False),
+                min_size=1, max_size=40),
+       st.integers(min_value=0, max_value=9))
+def test_any_finite_values(values, decimals):
+    v = np.array(values)
+    if not can_format([v], [decimals]):
+        return
+    _check([v], [decimals])
+
+
+def test_what_cannot_be_formatted_is_said():
+    assert not can_format([np.array([1.0, np.nan])], [7])
+    assert not can_format([np.array([np.inf])], [0])
+    assert not can_format([np.array([5e8])], [7])           # 5e15 > 2**52: not exact
+    assert can_format([np.array([4e8])], [7])
+    assert can_format([np.array([], dtype=float)], [7])
+    with pytest.raises(ValueError):
+        format_rows([np.zeros(2), np.zeros(3)], [1, 1])
