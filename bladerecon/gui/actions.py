@@ -25,7 +25,7 @@ __all__ = ["import_points", "import_nominal", "analyse_sections", "reconstruct_s
            "off_the_gui_thread", "Cancelled", "selected", "find_object"]
 
 _PARAMS = "User parameter:BaseApp/Preferences/Mod/BladeRecon"
-POINT_FILTER = "Measured points (*.csv *.txt *.xyz *.dat *.asc *.pts);;All files (*)"
+POINT_FILTER = "Measured points (*.csv *.txt *.xyz *.dat *.asc *.pts *.ply *.pcd);;All files (*)"
 SECTION_POINT_SIZE = 4.0
 
 

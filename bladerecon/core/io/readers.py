@@ -1,7 +1,7 @@
 # SPDX-License-Identifier: LGPL-2.1-or-later
 """Stage 1 of the pipeline: a measured point file -> :class:`PointSet` (units: mm).
 
-Three formats, recognised by content (never by file extension):
+Three text formats and two scanner formats, recognised by content (never by file extension):
 
 ``csv``
     A header row naming ``x``, ``y``, ``z`` (case-insensitive, any order, an optional
@@ -15,6 +15,10 @@ Three formats, recognised by content (never by file extension):
 ``section-table``
     The layout of ``shared/data/nasa_rotor37/rotor37_sections_xyz_mm.txt``: ``#`` lines,
     a line ``NPTS NSECTIONS``, then exactly NPTS*NSECTIONS lines ``x y z``.
+
+``ply`` / ``pcd``
+    Scanner files (ASCII or binary, optional normals), read by :mod:`bladerecon.core.io.scanner`:
+    an unordered cloud (``require_sections=False``), one block named ``1``.
 
 Sections are numbered 0.. in order of first appearance. CSV section labels are kept as
 names (an integer label ``3.0`` or ``03`` is named ``3``); sections without a label are
@@ -39,6 +43,7 @@ import numpy as np
 
 from bladerecon.core.errors import BladeReconError
 from bladerecon.core.io.outputs import shown
+from bladerecon.core.io.scanner import read_scan, sniff
 
 __all__ = ["PointSet", "read_points", "write_points_csv"]
 
@@ -61,9 +66,13 @@ class PointSet:
         line: (N,) int 1-based line number of each point in the file.
         section_names: one name per section index.
         source: the path the points were read from.
-        format: ``'csv'``, ``'xyz-blocks'`` or ``'section-table'``.
+        format: ``'csv'``, ``'xyz-blocks'``, ``'section-table'``, or a scan's ``'ply-ascii'``,
+            ``'ply-binary'``, ``'pcd-ascii'``, ``'pcd-binary'``.
         structured: False for one block of points with no section labels (read with
             ``require_sections=False``): a cloud, not one measured section.
+        normals: (N, 3) unit normals when the file gives them (PLY ``nx ny nz``, PCD
+            ``normal_x ...``), else None.
+        left_out: points of the file not in ``points`` (a PCD's NaN pixels).
     """
 
     points: np.ndarray
@@ -73,10 +82,13 @@ class PointSet:
     source: str
     format: str
     structured: bool = True
+    normals: np.ndarray | None = None
+    left_out: int = 0
 
     def __post_init__(self) -> None:
-        for name in ("points", "section", "line"):
-            getattr(self, name).flags.writeable = False
+        for name in ("points", "section", "line", "normals"):
+            if getattr(self, name) is not None:
+                getattr(self, name).flags.writeable = False
 
     @property
     def n_sections(self) -> int:
@@ -117,7 +129,10 @@ def read_points(path: str | os.PathLike, require_sections: bool = True) -> Point
 
 
 def _read_points(source: str, require_sections: bool) -> PointSet:
-    raw = _read_bytes(source)
+    raw = _read_bytes(source, text=False)
+    if sniff(raw):
+        return _scan_point_set(source, raw, require_sections)
+    _check_text(source, raw)
     fast = _read_fast(source, raw, require_sections)
     if fast is not None:
         return fast
@@ -199,8 +214,20 @@ def _write_atomically(target: Path, text: str) -> None:
 
 # --- file level ------------------------------------------------------------------------
 
-def _read_bytes(source: str) -> bytes:
-    """The file's bytes; a missing, unreadable or empty file is a one-line error."""
+def _scan_point_set(source: str, raw: bytes, require_sections: bool) -> PointSet:
+    """A PLY or PCD scan (:mod:`bladerecon.core.io.scanner`) as one unlabelled block: a cloud.
+    ``line`` holds each point's line (ASCII) or vertex number (binary)."""
+    scan = read_scan(source, raw)
+    if require_sections:
+        raise BladeReconError(f"{source}: a {scan.format.split('-')[0].upper()} scan: {_NO_STRUCTURE}")
+    n = len(scan.points)
+    return PointSet(np.ascontiguousarray(scan.points), np.zeros(n, dtype=int), np.asarray(scan.index), ("1",),
+                    source, scan.format, structured=False, normals=scan.normals, left_out=scan.left_out)
+
+
+def _read_bytes(source: str, text: bool = True) -> bytes:
+    """The file's bytes; a missing, unreadable or empty file is a one-line error, and so is
+    binary content when ``text``."""
     try:
         raw = Path(source).read_bytes()
     except FileNotFoundError:
@@ -212,12 +239,17 @@ def _read_bytes(source: str) -> bytes:
                               "check its permissions") from None
     if not raw.strip():
         raise BladeReconError(f"{source}: the file is empty: give one point per line")
+    if text:
+        _check_text(source, raw)
+    return raw
+
+
+def _check_text(source: str, raw: bytes) -> None:
     nul = raw.find(b"\0", 0, _TEXT_CHECK_BYTES)
     if nul >= 0:
         utf16 = " (UTF-16 text? save it as UTF-8)" if raw[:2] in (b"\xff\xfe", b"\xfe\xff") else ""
-        raise BladeReconError(f"{source}: not a text point file: a NUL byte at offset {nul}{utf16}: give a CSV "
-                              "or 'x y z' text file")
-    return raw
+        raise BladeReconError(f"{source}: not a text point file: a NUL byte at offset {nul}{utf16}: give a CSV, "
+                              "'x y z' text, PLY or PCD file")
 
 
 def _split_lines(raw: bytes) -> list[str]:

@@ -50,11 +50,25 @@ class Slice:
 
 
 def read_cloud(path: str, scale: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
-    """Points of an unordered cloud: lines of 3 numbers (x y z) or 4 (id x y z); '#' comments.
+    """Points of an unordered cloud: lines of 3 numbers (x y z) or 4 (id x y z); '#' comments;
+    or a PLY or PCD scan (:mod:`bladerecon.core.io.scanner`).
 
     ``scale`` multiplies the coordinates (1000 for a file in metres). Returns ``(points (N, 3)
     mm, line numbers (N,))``.
     """
+    from bladerecon.core.io.scanner import read_scan, sniff
+
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(1 << 16)
+        if sniff(head):                               # a PLY or PCD scan
+            with open(path, "rb") as fh:
+                scan = read_scan(path, fh.read())
+            if len(scan.points) < MIN_SLICE_POINTS:
+                raise BladeReconError(f"{path}: {len(scan.points)} points; a cloud to slice needs many more")
+            return scan.points * scale, scan.index
+    except OSError as exc:
+        raise BladeReconError(f"{path}: cannot read the cloud ({exc.strerror})") from None
     pts, lines = [], []
     try:
         with open(path, encoding="utf-8") as fh:
