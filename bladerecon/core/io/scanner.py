@@ -207,21 +207,30 @@ def _ascii_rows(source: str, raw: bytes, body: int, header_lines: int, skip: int
                 names: list[str], kind: str, says: str) -> Scan:
     """``count`` rows of ``ncol`` numbers after ``skip`` rows of the body (numpy's parser; on a
     bad row, the row is found and named)."""
-    text = raw[body:].decode("ascii", errors="replace")
-    rows = text.splitlines()
-    idx = [i for i, r in enumerate(rows) if r.strip()]                # blank lines are no rows
-    if len(idx) < skip + count:
-        raise BladeReconError(f"{source}: the {kind.upper()} file has {max(len(idx) - skip, 0)} vertex rows, "
+    tail = raw[body:].replace(b"\r\n", b"\n").replace(b"\r", b"\n")
+    newline = np.flatnonzero(np.frombuffer(tail, dtype=np.uint8) == 10)
+    starts = np.concatenate([[0], newline + 1])
+    ends = np.concatenate([newline, [len(tail)]])
+    filled = np.flatnonzero(ends > starts)                           # blank lines are no rows
+    if len(filled) < skip + count:
+        raise BladeReconError(f"{source}: the {kind.upper()} file has {max(len(filled) - skip, 0)} vertex rows, "
                               f"but {says}: the file was cut short or the count is wrong")
-    idx = idx[skip:skip + count]
-    chosen = [rows[i] for i in idx]
+    idx = filled[skip:skip + count]
+    chosen = None
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            table = np.loadtxt(io.StringIO("\n".join(chosen)), dtype=float, ndmin=2, comments=None)
+            if idx[-1] - idx[0] == count - 1:      # one block of rows: numpy's C parser on the bytes
+                block = tail[starts[idx[0]]:ends[idx[-1]]].decode("ascii")
+                table = np.loadtxt(io.StringIO(block), dtype=float, ndmin=2, comments=None)
+            else:
+                chosen = [tail[starts[i]:ends[i]].decode("ascii", errors="replace") for i in idx]
+                table = np.loadtxt(io.StringIO("\n".join(chosen)), dtype=float, ndmin=2, comments=None)
         if table.shape != (count, ncol):
             raise ValueError
-    except ValueError:
+    except (ValueError, UnicodeDecodeError):
+        if chosen is None:
+            chosen = [tail[starts[i]:ends[i]].decode("ascii", errors="replace") for i in idx]
         for i, r in zip(idx, chosen):
             cells = r.split()
             bad = len(cells) != ncol
