@@ -221,8 +221,8 @@ def _ascii_rows(source: str, raw: bytes, body: int, header_lines: int, skip: int
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             if idx[-1] - idx[0] == count - 1:      # one block of rows: numpy's C parser on the bytes
-                block = tail[starts[idx[0]]:ends[idx[-1]]].decode("ascii")
-                table = np.loadtxt(io.StringIO(block), dtype=float, ndmin=2, comments=None)
+                table = np.loadtxt(source, dtype=float, ndmin=2, comments=None, encoding="ascii",
+                                   skiprows=header_lines + int(idx[0]), max_rows=count)
             else:
                 chosen = [tail[starts[i]:ends[i]].decode("ascii", errors="replace") for i in idx]
                 table = np.loadtxt(io.StringIO("\n".join(chosen)), dtype=float, ndmin=2, comments=None)
