@@ -281,3 +281,48 @@ def test_importer_module(tmp_path):
         assert len(doc.Objects) == 2
     finally:
         FreeCAD.closeDocument(doc.Name)
+
+
+def test_probe_radius_on_measured_points_reaches_every_later_step(tmp_path):
+    """ProbeRadius on a MeasuredPoints of ball centres (R = 1.5 mm): its shape, the sections'
+    edge radii, the surface and the deviation all use the contact points; back to 0, the raw ones."""
+    sys.path.insert(0, str(REPO / "tests"))
+    from section_files import write_sections_csv
+    from test_compensation import BLADE, ball_centres
+
+    from bladerecon.samples.blade import section_heights
+
+    centres, _ = ball_centres(BLADE, 1.5, 200)
+    f = write_sections_csv(tmp_path / "balls.csv", centres)
+    doc = FreeCAD.newDocument("ProbeRadius")
+    try:
+        points = bro.make_measured_points(doc, str(f))
+        sections = bro.make_blade_sections(doc, points)
+        surface = bro.make_blade_surface(doc, points)
+        nominal = doc.addObject("Part::Feature", "Nominal")
+        nominal.Shape = Part.read(str(NOMINAL))
+        analysis = bro.make_deviation_analysis(doc, points, nominal, surface, tolerance=0.03)
+        doc.recompute()
+        raw_max = analysis.MaxAbs
+        raw_le = np.array(sections.LERadius)
+        points.ProbeRadius = 1.5
+        doc.recompute()
+        for obj in (points, sections, surface, analysis):
+            assert obj.Status == "ok", (obj.Name, obj.Status)
+        laws = BLADE.section_laws(section_heights(6))
+        assert np.abs(np.array(sections.LERadius) - laws.le_radius).max() < 0.005
+        assert np.abs(raw_le - laws.le_radius).min() > 1.4                  # the raw centres: radius + 1.5
+        shape_pts = np.array([(v.X, v.Y, v.Z) for v in points.Shape.Vertexes])
+        d = np.array([nominal.Shape.distToShape(Part.Vertex(*p))[0] for p in shape_pts[::25]])
+        assert d.max() < 0.002, d.max()                                      # OCC's distance to the nominal
+        face = surface.Shape.Faces[0]
+        on = np.array([nominal.Shape.distToShape(Part.Vertex(face.valueAt(u, v)))[0]
+                       for u in np.linspace(*face.ParameterRange[:2], 7)[:-1]
+                       for v in np.linspace(*face.ParameterRange[2:], 5)])
+        assert on.max() < 0.01, on.max()
+        assert analysis.MaxAbs < 0.002 and raw_max > 1.4
+        points.ProbeRadius = 0.0
+        doc.recompute()
+        assert np.abs(np.array(sections.LERadius) - raw_le).max() < 1e-9
+    finally:
+        FreeCAD.closeDocument(doc.Name)

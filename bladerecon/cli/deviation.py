@@ -47,9 +47,10 @@ def add_parser(sub) -> None:
     d.add_argument("--force", action="store_true",
                    help="write the report into an existing folder that holds files (files of the report's names "
                         "are replaced, others kept); without it such a folder is refused")
-    from bladerecon.cli.sections import flow_direction
+    from bladerecon.cli.sections import add_compensation_options, flow_direction
     d.add_argument("--flow", type=flow_direction, metavar="X,Y,Z",
                    help="direction the fluid travels: the section table's LE is the upstream end of every section")
+    add_compensation_options(d)
     d.add_argument("--span-range", metavar="A:B",
                    help="leave out points outside A..B mm along --span-axis (a scan's fillet and tip cap); "
                         "they are counted in the summary")
@@ -112,13 +113,18 @@ def run_deviation(args: argparse.Namespace) -> dict:
 
 def _read_measured(path: str):
     """Points, section index per point (None for a cloud) and names; coordinates checked."""
+    return _read_measured_lines(path)[:3]
+
+
+def _read_measured_lines(path: str):
+    """As :func:`_read_measured`, and each point's file line (or a scan's vertex number)."""
     from bladerecon.core.io.readers import read_points
 
     ps = read_points(path, require_sections=False)
     check_coordinates(ps.points, ps.line, path)
     if not ps.structured:
-        return np.asarray(ps.points, float), None, ()
-    return np.asarray(ps.points, float), np.asarray(ps.section), ps.section_names
+        return np.asarray(ps.points, float), None, (), np.asarray(ps.line)
+    return np.asarray(ps.points, float), np.asarray(ps.section), ps.section_names, np.asarray(ps.line)
 
 
 def _run(args: argparse.Namespace, temps: dict) -> dict:
@@ -130,9 +136,9 @@ def _run(args: argparse.Namespace, temps: dict) -> dict:
     if os.path.splitext(args.measured)[1].lower() in (".step", ".stp", ".iges", ".igs", ".brep", ".brp", ".fcstd"):
         points, surface = _surface_points(args.measured)
         check_coordinates(points, None, args.measured)
-        section, names = None, ()
+        section, names, lines = None, (), None
     else:
-        points, section, names = _read_measured(args.measured)
+        points, section, names, lines = _read_measured_lines(args.measured)
     from bladerecon.core.io.memory import check_budget, deviation_need
     check_budget(f"deviation of {len(points)} points", deviation_need(len(points)),
                  getattr(args, "memory_limit", None), "split the point file, or raise --memory-limit")
@@ -147,12 +153,27 @@ def _run(args: argparse.Namespace, temps: dict) -> dict:
     if args.align != "none":
         _say(args, f"best fit ({args.align})")
     inspection = None
+    from bladerecon.cli.sections import compensation_of
+    compensation = compensation_of(args)
+    if compensation is not None and args.inspection_plan is not None:
+        raise BladeReconError("--probe-radius and --coating are not applied with --plan yet: compensate the "
+                              "points first (sections or reconstruct), or leave the options out")
+    offset = 0.0
+    if compensation is not None:
+        if section is not None:       # measured sections: along each section curve's normal, in its plane
+            points = _compensate_sections(args, points, section, names, lines)
+            compensation["normals"] = "section curve"
+        else:                         # a cloud: along the nominal's normals (measure_deviation)
+            offset = compensation["offset_mm"]
+            compensation["normals"] = "nominal"
+        _say(args, f"moving the points {compensation['offset_mm']:g} mm toward the material along the "
+                   f"{compensation['normals']} normals (probe radius + coating)")
     if args.inspection_plan is not None:
         inspection = _inspect(args, nominal)
         res = inspection.result
     else:
         res = measure_deviation(points, nominal, args.align, args.tolerance, source=args.measured,
-                                robust=args.robust)
+                                robust=args.robust, offset=offset)
     s = res.stats
     _say(args, f"deviation max {s['max'] * 1000:.1f} µm, min {s['min'] * 1000:.1f} µm, "
                f"{s['within_tolerance_pct']:.1f} % within ±{args.tolerance} mm")
@@ -167,6 +188,8 @@ def _run(args: argparse.Namespace, temps: dict) -> dict:
     }
     if crop is not None:
         summary["cropped"] = crop
+    if compensation is not None:
+        summary["compensation"] = compensation
     if nominal_warning:
         summary["nominal"]["warning"] = nominal_warning
     if args.csv:
@@ -226,6 +249,22 @@ def _crop(args, points, section, nominal):
     return points[keep], (None if section is None else section[keep]), info
 
 
+def _compensate_sections(args, points, section, names, lines) -> np.ndarray:
+    """The points (file order) moved by ``--probe-radius`` + ``--coating`` along their section
+    curves' normals (:mod:`bladerecon.core.surface.compensation`)."""
+    from bladerecon.cli.sections import compensate
+    from bladerecon.core.io.readers import PointSet
+    from bladerecon.core.sections.ordering import build_sections
+
+    ss = build_sections(PointSet(np.array(points), np.asarray(section), np.array(lines), tuple(names),
+                                 args.measured, "csv"))
+    where = {int(ln): i for i, ln in enumerate(lines)}
+    out = np.array(points, float)
+    for s in compensate(args, ss).sections:
+        out[[where[int(ln)] for ln in s.lines]] = s.points
+    return out
+
+
 def _section_table(args, res, nominal) -> dict:
     """Section parameters measured (after the best fit) vs the nominal cut in each section's
     plane, for the report. A section that cannot be measured does not stop the report: the
@@ -237,7 +276,8 @@ def _section_table(args, res, nominal) -> dict:
 
     _say(args, "section parameters, measured vs nominal")
     try:
-        ss = build_sections(read_points(args.measured))
+        from bladerecon.cli.sections import compensate
+        ss = compensate(args, build_sections(read_points(args.measured)))
         M = res.alignment.matrix if res.alignment is not None else np.eye(4)
         pts = [apply_transform(s.points, M) for s in ss.sections]
         flow = getattr(args, "flow", None)

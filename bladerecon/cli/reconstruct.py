@@ -50,9 +50,10 @@ def add_parser(sub) -> None:
     r.add_argument("--continuity", type=int, choices=(2, 3), default=2,
                    help="with --segmented: C2 (default) or C3 at the LE/TE joints")
     r.add_argument("--solid", action="store_true", help="close hub and tip with planar caps; write a solid")
-    from bladerecon.cli.sections import flow_direction
+    from bladerecon.cli.sections import add_compensation_options, flow_direction
     r.add_argument("--flow", type=flow_direction, metavar="X,Y,Z",
                    help="direction the fluid travels: the leading edge is the upstream end of every section")
+    add_compensation_options(r)
     r.add_argument("--quiet", action="store_true", help="no progress messages on stderr")
     from bladerecon.cli.realdata import add_options as add_realdata_options
 
@@ -123,6 +124,15 @@ def _reconstruct(args: argparse.Namespace, say, step: str | None, report: str | 
     from bladerecon.cli import autocloud
     pointset, slicing = autocloud.read_input(args)
     sections = autocloud.build(args, pointset, build_sections)
+    from bladerecon.cli.sections import compensate, compensation_of
+    compensation = compensation_of(args)
+    if compensation is not None:
+        from bladerecon.core.sections.ordering import SectionSet
+        if not isinstance(sections, SectionSet):
+            raise BladeReconError("--probe-radius and --coating apply to measured sections in planes; these "
+                                  "sections were cut on stream surfaces: leave the options out")
+        say(f"moving the points {compensation['offset_mm']:g} mm toward the material (probe radius + coating)")
+        sections = compensate(args, sections)
     t_read = time.perf_counter()
     n_reordered = sum(s.reordered for s in sections.sections)
     say(f"{len(pointset.points)} points in {len(sections.sections)} sections"
@@ -202,6 +212,8 @@ def _reconstruct(args: argparse.Namespace, say, step: str | None, report: str | 
         summary["surface_fairing"] = rec.surface_fairing
     summary["fairness"] = realdata.fairness_summary(surf, pts, sections.span_axis)
     summary["le_rule"] = "flow" if flow is not None else ("first_point" if measured_start else "blunter_edge")
+    if compensation is not None:
+        summary["compensation"] = dict(compensation, normals="section curve")
 
     t_exp0 = time.perf_counter()
     shape = None

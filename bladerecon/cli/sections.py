@@ -47,6 +47,31 @@ def flow_direction(text: str) -> np.ndarray:
     return v / np.linalg.norm(v)
 
 
+def add_compensation_options(p) -> None:
+    """``--probe-radius`` and ``--coating`` (mm): the points are moved that far toward the material
+    (:mod:`bladerecon.core.surface.compensation`; ``deviation``: along the nominal's normals)."""
+    p.add_argument("--probe-radius", type=finite(0.0, 50.0, "mm"), default=0.0, metavar="MM",
+                   help="the points are touch-probe ball centres of this radius: move each by it toward the "
+                        "material, along the normal of its section (default 0)")
+    p.add_argument("--coating", type=finite(0.0, 50.0, "mm"), default=0.0, metavar="MM",
+                   help="the points lie on a coating this thick over the part: move each by it toward the "
+                        "material (default 0)")
+
+
+def compensation_of(args) -> dict | None:
+    """The JSON record of the compensation asked for, or None."""
+    r, t = getattr(args, "probe_radius", 0.0) or 0.0, getattr(args, "coating", 0.0) or 0.0
+    return None if r == 0.0 and t == 0.0 else {"probe_radius_mm": r, "coating_mm": t, "offset_mm": r + t}
+
+
+def compensate(args, ss):
+    """The section set moved by ``--probe-radius`` + ``--coating`` toward the material."""
+    if compensation_of(args) is None:
+        return ss
+    from bladerecon.core.surface.compensation import compensate_sections
+    return compensate_sections(ss, args.probe_radius, args.coating)
+
+
 def add_parser(sub) -> None:
     p = sub.add_parser("sections", help="section parameters (chord, stagger, thickness, LE/TE radius, angles)",
                        description="Segment every section (LE, TE, suction, pressure) and measure its "
@@ -57,6 +82,7 @@ def add_parser(sub) -> None:
     p.add_argument("--flow", type=flow_direction, metavar="X,Y,Z",
                    help="direction the fluid travels: the leading edge is the upstream end of every section "
                         "(without it the LE is guessed: the blunter end on most sections, with a warning)")
+    add_compensation_options(p)
     p.add_argument("--offsets", default="", metavar="MM,...", help="thickness at these distances from LE and TE")
     p.add_argument("--fractions", default="", metavar="F,...",
                    help="thickness at these chord fractions (0 < F < 1), camber-normal and chord-normal")
@@ -89,12 +115,15 @@ def _say(args, msg: str) -> None:
         print(f"bladerecon: {msg}", file=sys.stderr, flush=True)
 
 
-def _read_sections(path: str):
+def _read_sections(path: str, args=None):
+    """Ordered sections of a point file; with ``args``, compensated as its options say."""
     from bladerecon.core.io.readers import read_points
     from bladerecon.core.sections.ordering import build_sections
     ps = read_points(path)
     check_coordinates(ps.points, ps.line, path)
     ss = build_sections(ps)
+    if args is not None:
+        ss = compensate(args, ss)
     return [s.points for s in ss.sections], ss.span_axis, not ss.sections[0].reordered
 
 
@@ -144,6 +173,10 @@ def run_sections(args: argparse.Namespace) -> list:
         plots = outs.folder(args.plots, "--plots", force=args.force)
         out = _run(args, offsets, throat, plots, fractions)
         outs.commit()
+    comp = compensation_of(args)
+    if comp is not None:
+        for o in out:
+            o["compensation"] = comp
     if plan is not None:
         _judge(args, plan, out)
     if args.plots:
@@ -159,7 +192,7 @@ def _run(args, offsets, throat, plots, fractions=()) -> list:
                                                      segment_blade, stacking)
 
     _say(args, f"reading {args.input}")
-    pts, axis, _ = _read_sections(args.input)
+    pts, axis, _ = _read_sections(args.input, args)
     flow = getattr(args, "flow", None)
     nom_pts = nominal_blade = le_points = None
     if args.nominal:

@@ -329,12 +329,19 @@ def check_units(points: np.ndarray, nominal: Nominal, source: str = "the points"
 
 # --------------------------------------------------------------------------- the run
 def measure_deviation(points: np.ndarray, nominal: Nominal, align: str = "none",
-                      tolerance: float = 0.03, source: str = "the points", robust: bool = False) -> DeviationResult:
+                      tolerance: float = 0.03, source: str = "the points", robust: bool = False,
+                      offset: float = 0.0) -> DeviationResult:
     """Align (``none|rigid|translate|rotate-z``; ``robust``: Tukey-biweight fit), then
-    measure; stats as in ``deviation --json``."""
+    measure; stats as in ``deviation --json``.
+
+    ``offset`` (mm, probe radius + coating): the points are first moved that far toward the
+    material along the nominal's outward normal at their feet (the nominal-vector compensation
+    of CMM software), then aligned and measured."""
     t0 = time.perf_counter()
     P = np.asarray(points, float)
     check_units(P, nominal, source)
+    if offset:
+        P = P - offset * nominal.measure(P).normal
     t1 = time.perf_counter()
     alignment = None
     if align != "none":

@@ -182,6 +182,11 @@ class MeasuredPoints(_Feature):
         ("App::PropertyString", "Units", "Points", "length unit of the points", 1),
         ("App::PropertyInteger", "PointCount", "Points", "number of points", 1),
         ("App::PropertyInteger", "SectionCount", "Points", "number of sections", 1),
+        ("App::PropertyFloat", "ProbeRadius", "Compensation",
+         "touch-probe ball radius (mm): the points are ball centres; each is moved this far toward the material, "
+         "along its section curve's normal (0: none)", 0),
+        ("App::PropertyFloat", "Coating", "Compensation",
+         "coating thickness (mm) over the part: each point is moved this far toward the material (0: none)", 0),
     )
 
     def compute(self, obj: Any) -> None:
@@ -190,7 +195,15 @@ class MeasuredPoints(_Feature):
             raise BladeReconError(f"{obj.Label}: {n} points but {len(obj.SectionIndex)} section labels: "
                                   "import the file again")
         obj.PointCount, obj.SectionCount = n, len(obj.SectionNames)
-        obj.Shape = compound([Part.Vertex(v) for v in obj.Points]) if n else Part.Shape()
+        # the shape shows the points every later step uses: compensated when asked
+        pts = point_set(obj).points if n and _offset(obj) else obj.Points
+        obj.Shape = compound([Part.Vertex(*map(float, v)) for v in pts]) if n else Part.Shape()
+
+
+def _offset(obj: Any) -> tuple[float, float]:
+    """(probe radius, coating) of a MeasuredPoints in mm, or () when neither is set."""
+    r, t = float(getattr(obj, "ProbeRadius", 0.0) or 0.0), float(getattr(obj, "Coating", 0.0) or 0.0)
+    return (r, t) if r or t else ()
 
 
 def make_measured_points(doc: Any, path: str, name: str = "MeasuredPoints") -> Any:
@@ -223,9 +236,22 @@ def point_set(obj: Any):
         raise BladeReconError(f"{getattr(obj, 'Label', obj)} is not a MeasuredPoints object: select imported points")
     n = len(obj.Points)
     lines = np.array(obj.LineNumbers, dtype=int) if len(obj.LineNumbers) == n else np.arange(1, n + 1)
-    return PointSet(points=_array(obj.Points), section=np.array(obj.SectionIndex, dtype=int), line=lines,
-                    section_names=tuple(obj.SectionNames), source=obj.SourceFile or obj.Label,
-                    format=obj.Format or "csv")
+    ps = PointSet(points=_array(obj.Points), section=np.array(obj.SectionIndex, dtype=int), line=lines,
+                  section_names=tuple(obj.SectionNames), source=obj.SourceFile or obj.Label,
+                  format=obj.Format or "csv")
+    offset = _offset(obj)
+    if not offset:
+        return ps
+    # ProbeRadius / Coating: every point moved toward the material along its section curve's normal
+    from bladerecon.core.sections.ordering import build_sections
+    from bladerecon.core.surface.compensation import compensate_sections
+
+    where = {int(ln): i for i, ln in enumerate(lines)}
+    moved = np.array(ps.points, float)
+    for s in compensate_sections(build_sections(ps), *offset).sections:
+        moved[[where[int(ln)] for ln in s.lines]] = s.points
+    return PointSet(points=moved, section=ps.section, line=ps.line, section_names=ps.section_names,
+                    source=ps.source, format=ps.format)
 
 
 def _linked_points(obj: Any, link: str = "Points"):
