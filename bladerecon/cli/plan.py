@@ -88,12 +88,30 @@ def _dense_sections(args, axis: np.ndarray, heights: np.ndarray) -> tuple[list[n
     ps = read_points(args.nominal)
     check_coordinates(ps.points, ps.line, args.nominal)
     ss = build_sections(ps)
-    pts = [s.points for s in ss.sections]
+    pts = _denoised([s.points for s in ss.sections], args)
     h = np.array([p.mean(axis=0) @ axis for p in pts])
     if heights.size:
         pick = [int(np.argmin(np.abs(h - z))) for z in heights]
         return [pts[i] for i in pick], h[pick]
     return pts, h
+
+
+def _denoised(pts: list, args) -> list:
+    """Measured points as the nominal: where their noise is larger than their spacing allows
+    (the reconstruction's own test, :func:`choose_method`), each section is replaced by its
+    noise-consistent smoothing curve at the points' feet, in order along it; a plan needs the
+    curvature of the shape, not of the noise."""
+    from bladerecon.core.geometry.bspline import evaluate_curve
+    from bladerecon.core.reconstruct import _fit_sections
+    from bladerecon.core.surface.section_curves import choose_method
+
+    choice = choose_method(pts)
+    if choice.method != "approximate":
+        return pts
+    _say(args, f"the nominal's points carry {choice.noise_mm * 1000:.1f} µm of noise: planning on their smoothed "
+               "section curves")
+    args._smoothed_noise_mm = choice.noise_mm
+    return [evaluate_curve(c.curve, np.unique(np.mod(c.t_points, 1.0))) for c in _fit_sections(pts, choice, None)]
 
 
 def run_plan(args: argparse.Namespace) -> dict:
@@ -158,6 +176,8 @@ def _run(args, axis: np.ndarray, heights: np.ndarray, temp: str | None) -> dict:
         sec = np.concatenate([np.full(len(p.indices), p.index) for p in plans])
         write_points_csv(temp, pts, sec)
         summary["output"] = args.output
+    if getattr(args, "_smoothed_noise_mm", None) is not None:
+        summary["nominal_smoothed"] = {"noise_mm": args._smoothed_noise_mm}
     if args.check or args.surface_within:
         summary["check"] = _check(args, plans, axis)
     _say(args, f"kept {kept} of {total} points ({100 * summary['compression_rate']:.1f} % fewer), "

@@ -270,7 +270,7 @@ def _loop_order(src: str, name: str, q: np.ndarray, lines: np.ndarray) -> tuple[
         order, reordered = given, False
     else:
         order, reordered = candidate, True
-    hit = _first_crossing(q[order])
+    hit = _first_crossing(q[order], noise_radius(q[order]))
     if hit is not None:
         i, j = hit
         at = lines[order[[i, (i + 1) % n, j, (j + 1) % n]]]
@@ -357,9 +357,43 @@ def _uncross(q: np.ndarray, order: np.ndarray) -> np.ndarray:
     return order
 
 
-def _first_crossing(poly: np.ndarray) -> tuple[int, int] | None:
+LOCAL_EDGES = 4          # a crossing of edges this close along the loop may be noise (noise_radius)
+
+
+def noise_radius(poly: np.ndarray) -> float:
+    """The scale (mm) below which a closed loop's wiggles are measurement noise: 5x the median
+    distance of a point from the line through its two neighbours. Dense sections with noise
+    larger than their spacing zig-zag at this scale; on a clean loop it is the sagitta of the
+    spacing (h²κ/8), far smaller than the spacing itself, so no real loop fits inside it."""
+    p = np.asarray(poly, float)
+    if len(p) < 5:
+        return 0.0
+    a, c = np.roll(p, 1, axis=0), np.roll(p, -1, axis=0)
+    chord = c - a
+    length = np.maximum(np.hypot(chord[:, 0], chord[:, 1]), 1e-300)
+    dist = np.abs(chord[:, 0] * (p[:, 1] - a[:, 1]) - chord[:, 1] * (p[:, 0] - a[:, 0])) / length
+    return 5.0 * float(np.median(dist))
+
+
+def _local_noise(poly: np.ndarray, i: np.ndarray, j: np.ndarray, radius: float) -> np.ndarray:
+    """Which crossings (i, j) are noise: the edges at most LOCAL_EDGES apart along the loop and
+    the little loop they close (the points between them, the short way round) within
+    ``radius`` of its centroid."""
+    n = len(poly)
+    gap = np.minimum(j - i, n - (j - i))
+    out = np.zeros(len(i), dtype=bool)
+    for k in np.flatnonzero(gap <= LOCAL_EDGES):
+        a, b = (int(i[k]), int(j[k])) if j[k] - i[k] <= n - (j[k] - i[k]) else (int(j[k]), int(i[k]) + n)
+        pts = poly[np.arange(a + 1, b + 1) % n]
+        out[k] = np.sqrt(((pts - pts.mean(axis=0)) ** 2).sum(axis=1)).max() <= radius
+    return out
+
+
+def _first_crossing(poly: np.ndarray, noise: float = 0.0) -> tuple[int, int] | None:
     """First pair (i, j), i < j, of edges (i, i+1), (j, j+1 mod n) of the closed polygon
-    that cross properly, or None.
+    that cross properly, or None. With ``noise`` (mm, :func:`noise_radius`), a crossing of
+    edges close along the loop whose points all lie within that radius is a zig-zag of
+    measurement noise, not a crossing.
 
     Sweep on x: edges sorted by their lowest x are only tested against the edges whose x
     range overlaps, in chunks of at most _PAIR_BUDGET pairs, so memory stays bounded.
@@ -390,6 +424,9 @@ def _first_crossing(poly: np.ndarray) -> tuple[int, int] | None:
             a, b, c, d = p0[i], p1[i], p0[j], p1[j]
             crossing = ((_orient(a, b, c) * _orient(a, b, d) < 0)
                         & (_orient(c, d, a) * _orient(c, d, b) < 0))
+            if noise > 0.0 and crossing.any():
+                k = np.flatnonzero(crossing)
+                crossing[k[_local_noise(poly, i[k], j[k], noise)]] = False
             if crossing.any():
                 k = np.flatnonzero(crossing)
                 k = k[np.lexsort((j[k], i[k]))[0]]
