@@ -237,7 +237,7 @@ def _read_bytes(source: str, text: bool = True) -> bytes:
     except OSError as err:
         raise BladeReconError(f"{source}: cannot read the file ({err.strerror}): "
                               "check its permissions") from None
-    if not raw.strip():
+    if not raw[:4096].strip() and not raw.strip():      # the whole file copied only when its start is blank
         raise BladeReconError(f"{source}: the file is empty: give one point per line")
     if text:
         _check_text(source, raw)
@@ -385,7 +385,7 @@ def _read_fast(source: str, raw: bytes, require_sections: bool) -> PointSet | No
     if table.shape != (data.size, ncol) or not np.isfinite(table).all():
         return None
     table = table[:, pick]
-    idx = (data + body_first).tolist()
+    idx = data + body_first                              # 0-based line of each row (an array: no list of 1M ints)
     xyz = table[:, :3]
     fmt = "csv" if sep == "," else "xyz-blocks"
     if sep == "," and "section" in col:
