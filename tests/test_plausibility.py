@@ -66,3 +66,27 @@ def test_the_command_warns_and_still_measures(tmp_path):
         lines = [ln for ln in r.stderr.splitlines() if "does not look like a blade" in ln]
         assert len(lines) == int(warned) and all(ln.startswith("bladerecon: warning:") for ln in lines), r.stderr
         assert ("warning" in json.loads(r.stdout)["nominal"]) == warned
+
+
+def test_sections_warns_about_a_box_and_names_the_nominal_when_it_has_no_edges(tmp_path):
+    """sections --nominal: a box nominal gets the same warning line (even with --quiet) and is
+    measured; a cylinder, whose cuts have no LE/TE, is refused in one line naming the nominal."""
+    box = Part.makeBox(60, 30, 100)
+    box.translate(FreeCAD.Vector(-30, -15, 0))
+    box.exportStep(str(tmp_path / "box.step"))
+    Part.makeCylinder(30, 100).exportStep(str(tmp_path / "cyl.step"))
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    measured = str(ROOT / "resources" / "sample" / "measured.csv")
+
+    def sections(nominal):
+        return subprocess.run([sys.executable, "-m", "bladerecon", "sections", measured, "--nominal", str(nominal),
+                               "--json", "--quiet"], capture_output=True, text=True, env=env, timeout=300)
+    for nominal, warned in ((tmp_path / "box.step", True), (SAMPLE, False)):
+        r = sections(nominal)
+        assert r.returncode == 0 and "Traceback" not in r.stderr, r.stderr
+        assert ("bladerecon: warning: the nominal does not look like a blade" in r.stderr) == warned, r.stderr
+        assert len(json.loads(r.stdout)) == 6
+    r = sections(tmp_path / "cyl.step")
+    lines = r.stderr.strip().splitlines()
+    assert r.returncode == 2 and lines[-1].startswith(f"bladerecon: error: {tmp_path / 'cyl.step'} (the nominal")
+    assert "Traceback" not in r.stderr and len(lines) == 2                 # the warning, then the error

@@ -65,8 +65,9 @@ def test_verdicts_agree_with_the_written_deviations(inspected):
     for s in summary["sections"]:
         d = dev[section == s["index"]]
         prof = s["profile"]
-        assert max(z["max"] for z in prof.values()) == pytest.approx(d.max(), abs=1e-8)
-        assert min(z["min"] for z in prof.values()) == pytest.approx(d.min(), abs=1e-8)
+        # the CSV writes 7 decimals (0.1 nm): equal within half its last digit
+        assert max(z["max"] for z in prof.values()) == pytest.approx(d.max(), abs=5.1e-8)
+        assert min(z["min"] for z in prof.values()) == pytest.approx(d.min(), abs=5.1e-8)
         assert sum(z["points"] for z in prof.values()) == len(d)
         for name, z in prof.items():
             tol = 0.02 if (name == "flanks" and s["index"] == 5) else tols[name]

@@ -198,11 +198,15 @@ def _run(args, offsets, throat, plots, fractions=()) -> list:
     if args.nominal:
         _say(args, f"nominal {args.nominal}")
         nom_pts = _nominal_sections(args, pts, axis)      # cut in the measured sections' planes
+        _nominal_warning(args)
         if flow is None:
             # no flow given: the nominal decides, each measured LE the end nearest the nominal's
             # LE, and the nominal's LE is its blunter end on most sections, judged on exact
             # geometry that wear, damage and noise cannot swap (issue 24 §1)
-            nominal_blade = segment_blade(nom_pts, axis, throat=throat)
+            try:
+                nominal_blade = segment_blade(nom_pts, axis, throat=throat)
+            except BladeReconError as err:
+                raise BladeReconError(f"{args.nominal} (the nominal, cut in the measured planes): {err}") from None
             le_points = [s.lift(s.le)[0] for s in nominal_blade.sections]
             _say(args, "leading edge from the nominal (its blunter end on most sections); "
                        "give --flow X,Y,Z to be sure")
@@ -232,6 +236,18 @@ def _run(args, offsets, throat, plots, fractions=()) -> list:
         for s, p, ns in zip(segs, params, nsegs):
             plot_section(os.path.join(plots, f"section_{s.index:02d}.png"), s, p, ns)
     return out
+
+
+def _nominal_warning(args) -> None:
+    """A shape nominal that does not look like a blade (a box, a cylinder given by mistake): a
+    warning line on stderr, even with --quiet (the deviation command's check)."""
+    if os.path.splitext(args.nominal)[1].lower() not in SHAPE_SUFFIXES:
+        return
+    from bladerecon.fc.deviation import blade_like_warning, load_nominal
+
+    warning = blade_like_warning(load_nominal(args.nominal))
+    if warning:
+        print(f"bladerecon: warning: {warning}", file=sys.stderr, flush=True)
 
 
 def _inspection_plan(args):
