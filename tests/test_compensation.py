@@ -6,9 +6,6 @@ ball path is refused in one line."""
 from __future__ import annotations
 
 import json
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -20,6 +17,7 @@ from bladerecon.core.io.readers import PointSet
 from bladerecon.core.sections.ordering import build_sections
 from bladerecon.core.surface.compensation import compensate_sections
 from bladerecon.samples.blade import SampleBlade, section_heights, t_at_length_fraction
+from cli_run import run
 from section_files import write_sections_csv
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -106,12 +104,6 @@ def test_sections_off_a_plane_are_refused():
     ss = build_sections(_set(bent))
     with pytest.raises(BladeReconError, match="section '2' is not planar"):
         compensate_sections(ss, probe_radius=0.5)
-
-
-def run(*args):
-    env = dict(os.environ, PYTHONPATH=str(ROOT))
-    return subprocess.run([sys.executable, "-m", "bladerecon", *map(str, args)], capture_output=True, text=True,
-                          env=env, timeout=600)
 
 
 @pytest.fixture(scope="module")

@@ -29,17 +29,23 @@ PLAN = REPO / "resources" / "sample" / "measured_plan.csv"
 NOMINAL = REPO / "resources" / "sample" / "nominal.step"
 
 
-@pytest.fixture(scope="module")
-def chain(tmp_path_factory):
-    doc = FreeCAD.newDocument("ObjectsTest")
-    points = bro.make_measured_points(doc, str(PLAN))
+def make_chain(doc, path):
+    """Points from ``path``, their sections and surface, the sample nominal and the deviation
+    analysis of the points against it, recomputed."""
+    points = bro.make_measured_points(doc, str(path))
     sections = bro.make_blade_sections(doc, points)
     surface = bro.make_blade_surface(doc, points)
     nominal = doc.addObject("Part::Feature", "Nominal")
     nominal.Shape = Part.read(str(NOMINAL))
     analysis = bro.make_deviation_analysis(doc, points, nominal, surface, tolerance=0.03)
     doc.recompute()
-    yield doc, points, sections, surface, nominal, analysis
+    return points, sections, surface, nominal, analysis
+
+
+@pytest.fixture(scope="module")
+def chain(tmp_path_factory):
+    doc = FreeCAD.newDocument("ObjectsTest")
+    yield (doc, *make_chain(doc, PLAN))
     FreeCAD.closeDocument(doc.Name)
 
 
@@ -296,13 +302,7 @@ def test_probe_radius_on_measured_points_reaches_every_later_step(tmp_path):
     f = write_sections_csv(tmp_path / "balls.csv", centres)
     doc = FreeCAD.newDocument("ProbeRadius")
     try:
-        points = bro.make_measured_points(doc, str(f))
-        sections = bro.make_blade_sections(doc, points)
-        surface = bro.make_blade_surface(doc, points)
-        nominal = doc.addObject("Part::Feature", "Nominal")
-        nominal.Shape = Part.read(str(NOMINAL))
-        analysis = bro.make_deviation_analysis(doc, points, nominal, surface, tolerance=0.03)
-        doc.recompute()
+        points, sections, surface, nominal, analysis = make_chain(doc, f)
         raw_max = analysis.MaxAbs
         raw_le = np.array(sections.LERadius)
         points.ProbeRadius = 1.5

@@ -5,18 +5,16 @@ take them; a real fold or two swapped clean points are still refused in one line
 from __future__ import annotations
 
 import json
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from bladerecon.core.errors import BladeReconError
-from bladerecon.core.io.readers import PointSet, read_points
+from bladerecon.core.io.readers import PointSet
 from bladerecon.core.sections.ordering import build_sections, noise_radius
 from bladerecon.samples.blade import SampleBlade, section_heights, t_at_length_fraction
+from cli_run import run
 from section_files import write_sections_csv
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -39,12 +37,6 @@ def _set(sections) -> PointSet:
     P = np.concatenate(sections)
     sec = np.repeat(np.arange(len(sections)), [len(s) for s in sections])
     return PointSet(P, sec, np.arange(len(P)) + 2, tuple(str(k) for k in range(len(sections))), "sim", "csv")
-
-
-def run(*args):
-    env = dict(os.environ, PYTHONPATH=str(ROOT))
-    return subprocess.run([sys.executable, "-m", "bladerecon", *map(str, args)], capture_output=True, text=True,
-                          env=env, timeout=600)
 
 
 @pytest.fixture(scope="module", params=[11, 12])

@@ -4,9 +4,6 @@ the same answers as the same points in a CSV, and a one-line error for every way
 from __future__ import annotations
 
 import json
-import os
-import subprocess
-import sys
 import time
 from pathlib import Path
 
@@ -16,6 +13,7 @@ import pytest
 from bladerecon.core.errors import BladeReconError
 from bladerecon.core.io.readers import read_points
 from bladerecon.core.sections.slicing import read_cloud
+from cli_run import run
 from scan_files import write_pcd, write_ply
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -115,6 +113,15 @@ def _error(path, require_sections=False) -> str:
     return msg
 
 
+def _mutated(tmp_path, ext: str, cases) -> None:
+    """Each (file text, words the one-line message must hold)."""
+    for k, (text, words) in enumerate(cases):
+        path = tmp_path / f"bad{k}.{ext}"
+        path.write_text(text)
+        msg = _error(path)
+        assert all(w in msg for w in words), (k, words, msg)
+
+
 def test_bad_ply_files_are_one_line_each(tmp_path):
     P, N = _cloud(40)
     assert "cut short" in _error(write_ply(tmp_path / "t.ply", P, N, cut=7)) and "39 vertices" in \
@@ -125,20 +132,15 @@ def test_bad_ply_files_are_one_line_each(tmp_path):
     good = write_ply(tmp_path / "g.ply", P, fmt="ascii").read_text()
     lines = good.splitlines()
     lines[12] = "1.0 2.0"                                          # a row short of a value
-    (tmp_path / "r.ply").write_text("\n".join(lines) + "\n")
-    assert "line 13" in _error(tmp_path / "r.ply") and "expected 3 numbers" in _error(tmp_path / "r.ply")
-    (tmp_path / "u.ply").write_text(good.replace("property float z", "property quad z"))
-    assert "line 7" in _error(tmp_path / "u.ply") and "unknown PLY property type" in _error(tmp_path / "u.ply")
-    (tmp_path / "n.ply").write_text(good.replace("property float z", "property float w"))
-    assert "no z property" in _error(tmp_path / "n.ply")
-    (tmp_path / "e.ply").write_text(good.replace("end_header", "end_head"))
-    assert "end_header" in _error(tmp_path / "e.ply")
-    (tmp_path / "l.ply").write_text(good.replace("property float z", "property float z\nproperty list uchar int i"))
-    assert "list property" in _error(tmp_path / "l.ply")
-    (tmp_path / "f.ply").write_text(good.replace("format ascii", "format binary_middle_endian"))
-    assert "unknown PLY format" in _error(tmp_path / "f.ply")
-    (tmp_path / "z.ply").write_text(good.replace("element vertex 40", "element vertex 0"))
-    assert "0 vertices" in _error(tmp_path / "z.ply")
+    _mutated(tmp_path, "ply", [
+        ("\n".join(lines) + "\n", ["line 13", "expected 3 numbers"]),
+        (good.replace("property float z", "property quad z"), ["line 7", "unknown PLY property type"]),
+        (good.replace("property float z", "property float w"), ["no z property"]),
+        (good.replace("end_header", "end_head"), ["end_header"]),
+        (good.replace("property float z", "property float z\nproperty list uchar int i"), ["list property"]),
+        (good.replace("format ascii", "format binary_middle_endian"), ["unknown PLY format"]),
+        (good.replace("element vertex 40", "element vertex 0"), ["0 vertices"]),
+    ])
     bad = write_ply(tmp_path / "nan.ply", np.vstack([P[:3], [[np.nan, 0, 0]], P[3:]]))
     assert "vertex 4" in _error(bad) and "NaN" in _error(bad)
     assert "section" in _error(write_ply(tmp_path / "s.ply", P), require_sections=True)
@@ -148,22 +150,13 @@ def test_bad_pcd_files_are_one_line_each(tmp_path):
     P, N = _cloud(40)
     assert "cut short" in _error(write_pcd(tmp_path / "t.pcd", P, N, cut=5))
     good = write_pcd(tmp_path / "g.pcd", P, data="ascii").read_text()
-    (tmp_path / "c.pcd").write_text(good.replace("DATA ascii", "DATA binary_compressed"))
-    assert "compressed PCD" in _error(tmp_path / "c.pcd")
-    (tmp_path / "x.pcd").write_text(good.replace("FIELDS x y z", "FIELDS u y z"))
-    assert "no x" in _error(tmp_path / "x.pcd")
-    (tmp_path / "k.pcd").write_text(good.replace("TYPE F F F", "TYPE Q F F"))
-    assert "TYPE Q" in _error(tmp_path / "k.pcd")
-    (tmp_path / "p.pcd").write_text(good.replace("POINTS 40", "POINTS 45"))
-    assert "40 vertex rows" in _error(tmp_path / "p.pcd")
-    (tmp_path / "nan.pcd").write_text(good.split("DATA ascii\n")[0] + "DATA ascii\n" + "nan nan nan 0\n" * 40)
-    assert "every point" in _error(tmp_path / "nan.pcd")
-
-
-def run(*args):
-    env = dict(os.environ, PYTHONPATH=str(ROOT))
-    return subprocess.run([sys.executable, "-m", "bladerecon", *map(str, args)], capture_output=True, text=True,
-                          env=env, timeout=600)
+    _mutated(tmp_path, "pcd", [
+        (good.replace("DATA ascii", "DATA binary_compressed"), ["compressed PCD"]),
+        (good.replace("FIELDS x y z", "FIELDS u y z"), ["no x"]),
+        (good.replace("TYPE F F F", "TYPE Q F F"), ["TYPE Q"]),
+        (good.replace("POINTS 40", "POINTS 45"), ["40 vertex rows"]),
+        (good.split("DATA ascii\n")[0] + "DATA ascii\n" + "nan nan nan 0\n" * 40, ["every point"]),
+    ])
 
 
 def test_deviation_of_a_ply_scan_is_the_deviation_of_its_points(tmp_path):
