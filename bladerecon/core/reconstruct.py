@@ -20,6 +20,8 @@ from bladerecon.core.surface.section_curves import (
     choose_method,
     fit_section_approximate,
     fit_section_interpolate,
+    merge_groups,
+    repeated_measurements,
 )
 from bladerecon.core.geometry.spline import BSplineSurface
 from bladerecon.core.surface.skinning import (
@@ -55,6 +57,13 @@ class Reconstruction:
     section_residual: np.ndarray         # (N,) distance of each point to its section curve (mm)
     seconds: dict = field(default_factory=dict)
     added_points: int | None = None      # points inserted by the angle pairing (seed 000 §2.3)
+
+
+def _ungroup(sc: SectionCurve, points: np.ndarray, index: np.ndarray) -> SectionCurve:
+    """The section curve fitted to merged points, with a foot parameter and a distance for
+    every measured point (the foot of its group's mean)."""
+    t = np.asarray(sc.t_points)[index]
+    return SectionCurve(sc.index, sc.curve, t, np.linalg.norm(evaluate_curve(sc.curve, t) - points, axis=1))
 
 
 def _fit_sections(pts: list[np.ndarray], choice: MethodChoice, tolerance: float | None) -> list[SectionCurve]:
@@ -115,13 +124,26 @@ def reconstruct(section_points: list[np.ndarray], span_axis: np.ndarray, method:
     if tolerance is not None and not tolerance > 0:
         raise BladeReconError(f"--tolerance must be a positive distance in mm, got {tolerance}")
     t0 = time.perf_counter()
+    measured = [np.asarray(p, float) for p in section_points]
+    # a spot measured twice (points closer than the noise, a few of them): one point, their mean;
+    # two points microns apart would decide the method and make an interpolation wiggle
+    groups = repeated_measurements(measured)
+    if groups is not None:
+        section_points = [merge_groups(p, g) for p, g in zip(measured, groups)]
     choice = choose_method(section_points)
     if method != "auto":
         choice = MethodChoice(method, f"{method} requested", choice.noise_mm, choice.min_spacing_mm,
                               choice.tangent_noise)
+    if groups is not None:
+        merged = sum(len(g) - (g.max() + 1) for g in groups)
+        choice = MethodChoice(choice.method, f"{merged} repeated measurement(s) of one spot averaged; "
+                              + choice.reason, choice.noise_mm, choice.min_spacing_mm, choice.tangent_noise)
     if choice.method == "approximate" and tolerance is None and method == "approximate":
         tolerance = max(4.0 * choice.noise_mm * np.sqrt(2.0), 0.001)
     curves = _fit_sections(section_points, choice, tolerance)
+    if groups is not None:      # back to every measured point: its group's foot, its own distance
+        curves = [_ungroup(sc, p, np.unique(g, return_inverse=True)[1].ravel())
+                  for sc, p, g in zip(curves, measured, groups)]
     t1 = time.perf_counter()
 
     anchored: list[AnchoredSection] = []

@@ -113,6 +113,43 @@ def _loop_spacing(points: np.ndarray) -> np.ndarray:
     return np.linalg.norm(np.roll(points, -1, axis=0) - points, axis=1)
 
 
+REPEAT_SIGMAS = 4.0        # consecutive points closer than this many noise sigmas: one spot measured again
+REPEAT_SHARE = 0.05        # ... merged only while they are this few (else the data is dense: smoothing)
+
+
+def repeated_measurements(sections: list[np.ndarray]) -> list[np.ndarray] | None:
+    """Per section, a group number for each point (runs of consecutive points closer than
+    REPEAT_SIGMAS noise sigmas, the closing pair included, share one), when such repeats are
+    isolated: at most REPEAT_SHARE of the points and at most one in ten of every section's
+    points. None when there are none, or so many that the data is dense (smoothing's case)."""
+    sigma = float(np.median([estimate_noise(p) for p in sections]))
+    radius = max(REPEAT_SIGMAS * sigma, 1e-4)
+    groups, repeats, total = [], 0, 0
+    for p in sections:
+        close = _loop_spacing(np.asarray(p, float)) < radius          # point k and k+1 (mod n) together
+        n = len(p)
+        if close.sum() > 0.1 * n or close.all():
+            return None
+        g = np.concatenate([[0], np.cumsum(~close[:-1])])
+        if close[-1] and g[-1] != g[0]:                                # the last point repeats the first
+            g[g == g[-1]] = g[0]
+        groups.append(g)
+        repeats += int(close.sum())
+        total += n
+    if repeats == 0 or repeats > REPEAT_SHARE * total:
+        return None
+    return groups
+
+
+def merge_groups(points: np.ndarray, group: np.ndarray) -> np.ndarray:
+    """The mean point of each group, in the order the groups first appear."""
+    _, first, inverse = np.unique(group, return_index=True, return_inverse=True)
+    sums = np.zeros((first.size, points.shape[1]))
+    np.add.at(sums, inverse.ravel(), points)
+    merged = sums / np.bincount(inverse.ravel())[:, None]
+    return merged[np.argsort(first)]
+
+
 def choose_method(sections: list[np.ndarray]) -> MethodChoice:
     """Interpolate or smooth, decided from the data (point spacing against noise).
 
