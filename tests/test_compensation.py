@@ -161,7 +161,7 @@ def test_a_cloud_is_compensated_along_the_nominal_normals(tmp_path):
 
 
 def test_bad_values_and_non_planar_sections_are_one_line(balls):
-    for opts in (["--probe-radius", "-1"], ["--coating", "nan"], ["--probe-radius", "2.5"]):
+    for opts in (["--probe-radius", "-1"], ["--coating", "nan"], ["--probe-radius", "3"]):
         r = run("deviation", balls, "--nominal", SAMPLE / "nominal.step", "--quiet", *opts)
         assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1 and "Traceback" not in r.stderr, r.stderr
     r = run("reconstruct", ROOT / "tests" / "data" / "parablade_r67_cloud" / "NASA_R67_MoveSurface.txt",

@@ -20,7 +20,8 @@ Exact for noise-free points on the offset path up to the curve fit's tangent err
 compensated point is off by ``(R + T)(1 - cos δ)`` across the profile (and ``(R + T) sin δ``
 along it, which does not change the shape). A point where the measured path is curved more
 tightly than ``1 / (R + T)`` cannot be an offset path at that distance (the ball would not fit):
-that is refused, naming the section and line.
+that is refused, naming the section and line (with a margin, :data:`TIGHT_MARGIN`, for the fit's
+curvature overshoot where an edge circle meets a flank).
 """
 from __future__ import annotations
 
@@ -31,6 +32,10 @@ from bladerecon.core.geometry.bspline import curve_derivatives
 from bladerecon.core.sections.ordering import Section, SectionSet
 
 __all__ = ["compensate_sections", "outward_normals"]
+
+# the fitted curve overshoots the curvature where an edge circle meets a flank (a curvature jump):
+# a path is refused only when it turns tighter than this share of the offset
+TIGHT_MARGIN = 0.8
 
 
 def outward_normals(sections: SectionSet) -> tuple[list[np.ndarray], list[np.ndarray]]:
@@ -75,7 +80,7 @@ def compensate_sections(sections: SectionSet, probe_radius: float = 0.0, coating
     normals, curvature = outward_normals(sections)
     out = []
     for s, n, k in zip(sections.sections, normals, curvature):
-        tight = np.flatnonzero(k * offset >= 1.0)
+        tight = np.flatnonzero(k * offset >= 1.0 / TIGHT_MARGIN)
         if tight.size:
             i = int(tight[np.argmax(k[tight])])
             raise BladeReconError(
