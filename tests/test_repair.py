@@ -239,3 +239,29 @@ def test_cli_cut_height_blend_and_max_damage(tmp_path):
     r = _cli("c.csv", "--nominal", nominal, "--max-damage", 0.5, "-o", "x.step", "--quiet", cwd=tmp_path)
     assert r.returncode == 2 and "damage over" in r.stderr and r.stderr.strip().count("\n") == 0
     assert not (tmp_path / "x.step").exists()
+
+
+def test_flow_names_the_edges(case):
+    """Issue 24: with the flow given, a region's LE/TE kind comes from the upstream end. The
+    sample blade's LE is upstream for +x: the same chord as the blunter-end rule; reversed, the
+    chord runs the other way."""
+    from bladerecon.core.repair.target import _profile_rows
+
+    _, nom = case
+    v = np.linspace(0.1, 0.9, 5)
+    plain = _profile_rows(nom, v, 64)[2]
+    ahead = _profile_rows(nom, v, 64, np.array([1.0, 0.0, 0.0]))[2]
+    back = _profile_rows(nom, v, 64, np.array([-2.0, 0.0, 0.0]))[2]
+    assert np.allclose(ahead, plain) and np.allclose(back, 1.0 - plain, atol=0.02)
+    with pytest.raises(BladeReconError, match="along the blade's span"):
+        _profile_rows(nom, v, 64, np.array([0.0, 0.0, 1.0]))
+
+
+@pytest.mark.timeout(240)
+def test_reversed_flow_calls_the_eroded_edge_the_trailing_edge(case, cloud_result):
+    sd, nom = case
+    res = repair_target(damaged_cloud(sd, n_rows=150, n_around=300, noise=NOISE), nom, 1.0,
+                        flow=np.array([-1.0, 0.0, 0.0]))
+    le = max(r["max_depth_mm"] for r in cloud_result.regions if r["kind"] == "leading_edge")
+    te = max(r["max_depth_mm"] for r in res.regions if r["kind"] == "trailing_edge")
+    assert abs(te - le) < 1e-9 and abs(res.volume_mm3 - cloud_result.volume_mm3) < 1e-9

@@ -38,6 +38,10 @@ def add_parser(sub) -> None:
     d.add_argument("--report", metavar="DIR",
                    help="write missing.step, missing_map.png, regions.csv and report.html into DIR")
     d.add_argument("--force", action="store_true", help="write the report into an existing folder that holds files")
+    from bladerecon.cli.sections import flow_direction
+    d.add_argument("--flow", type=flow_direction, metavar="X,Y,Z",
+                   help="direction the fluid travels (nominal frame): a damaged region at the upstream end is "
+                        "the leading edge (without it: the blunter end)")
     d.add_argument("--json", action="store_true", help="print one JSON summary object to stdout")
     d.add_argument("--quiet", action="store_true", help="no progress messages on stderr")
     one_line_errors(d)
@@ -85,13 +89,15 @@ def _run(args: argparse.Namespace, temps: dict) -> dict:
     t_read = time.perf_counter()
     _say(args, "best fit, service deformation, damage")
     res = repair_target(points, surface, sign, tolerance=args.tolerance, cut_height=args.cut_height,
-                        blend=args.blend, section=section, max_damage_share=args.max_damage / 100.0)
+                        blend=args.blend, section=section, max_damage_share=args.max_damage / 100.0,
+                        flow=getattr(args, "flow", None))
     d = res.deformation
     _say(args, f"twist at the tip {d['twist_deg_at_tip']:.3f}°, bend {d['max_bend_mm']:.3f} mm; "
                f"{len(res.regions)} damaged region(s), missing {res.volume_mm3:.2f} mm³")
     summary = res.summary()
     summary.update({"units": "mm, mm², mm³, degrees", "measured": args.measured, "nominal": args.nominal,
-                    "tolerance_mm": args.tolerance})
+                    "tolerance_mm": args.tolerance,
+                    "le_rule": "flow" if getattr(args, "flow", None) is not None else "blunter_edge"})
     t_core = time.perf_counter()
     if args.output:
         from bladerecon.fc.export import write_step

@@ -138,14 +138,17 @@ def _projector(surface: BSplineSurface, sign: float):
 
 def repair_target(points: np.ndarray, nominal: BSplineSurface, sign: float = 1.0, *,
                   tolerance: float = 0.03, cut_height: float | None = None, blend: float | None = None,
-                  section: np.ndarray | None = None, max_damage_share: float = _MAX_DAMAGE_SHARE) -> RepairResult:
+                  section: np.ndarray | None = None, max_damage_share: float = _MAX_DAMAGE_SHARE,
+                  flow: np.ndarray | None = None) -> RepairResult:
     """The repair target of a damaged blade measured as ``points`` (m, 3) mm.
 
     ``nominal``: the design blade surface; ``sign`` makes its normal point out of the
     material. ``section``: section index per point when the points are planar sections
     (then the damage rows are the sections), None for a cloud. Raises
     :class:`BladeReconError` for no undamaged area, a nominal that does not cover the
-    measured span, or damage over ``max_damage_share`` of the blade.
+    measured span, or damage over ``max_damage_share`` of the blade. ``flow``: the direction the
+    fluid travels (nominal frame): a region's ``leading_edge`` / ``trailing_edge`` kind is then
+    named from the upstream end, not from the blunter one.
     """
     t0 = time.perf_counter()
     P0 = np.asarray(points, float)
@@ -172,7 +175,7 @@ def repair_target(points: np.ndarray, nominal: BSplineSurface, sign: float = 1.0
     naive = transform_surface(nominal, np.linalg.inv(_naive_fit(P0, nominal, sign, w > 0).matrix))
 
     mode = "sections" if section is not None and _planar_sections(P, section) else "cloud"
-    grid = _damage_grid(P, fit, nominal, fld, z_to_v, (z_lo, z_hi), tolerance, cut_height, section, mode)
+    grid = _damage_grid(P, fit, nominal, fld, z_to_v, (z_lo, z_hi), tolerance, cut_height, section, mode, flow)
     share = grid["damaged_area"] / grid["total_area"]
     if share > max_damage_share:
         raise BladeReconError(
@@ -277,9 +280,15 @@ def _planar_sections(P: np.ndarray, section: np.ndarray) -> bool:
     return True
 
 
-def _profile_rows(nominal: BSplineSurface, v_rows: np.ndarray, n_u: int):
+def _profile_rows(nominal: BSplineSurface, v_rows: np.ndarray, n_u: int, flow: np.ndarray | None = None):
     """Per row: points at the u-bin edges, ds and in-plane curvature at the bin centres, and
-    the chord fraction of each bin centre (0 LE, 1 TE; LE = the blunter end)."""
+    the chord fraction of each bin centre (0 LE, 1 TE; LE = the blunter end, or with ``flow``
+    the upstream end)."""
+    if flow is not None:
+        f2 = np.asarray(flow, float)[:2]
+        if np.linalg.norm(f2) < 0.1 * np.linalg.norm(flow):
+            raise BladeReconError("--flow runs along the blade's span: give the direction the fluid crosses the "
+                                  "sections in")
     u0, u1 = nominal.u_domain
     edges = np.linspace(u0, u1, n_u + 1)
     fine = 8
@@ -298,7 +307,10 @@ def _profile_rows(nominal: BSplineSurface, v_rows: np.ndarray, n_u: int):
         centre = pts.mean(axis=0)
         a = int(np.argmax(np.linalg.norm(pts - centre, axis=1)))
         b = int(np.argmax(np.linalg.norm(pts - pts[a], axis=1)))
-        le, te = (a, b) if k[a] < k[b] else (b, a)      # the LE is the rounder (larger radius) end
+        if flow is not None:                            # the LE is the upstream end
+            le, te = (a, b) if pts[a] @ f2 < pts[b] @ f2 else (b, a)
+        else:                                           # the LE is the rounder (larger radius) end
+            le, te = (a, b) if k[a] < k[b] else (b, a)
         c = pts[te] - pts[le]
         x = ((pts - pts[le]) @ c) / (c @ c)
         chord.append(x.reshape(n_u, fine).mean(axis=1))
@@ -311,7 +323,7 @@ def _section_area(nominal: BSplineSurface, v: float, n: int = 4000) -> float:
     return 0.5 * abs(float(np.dot(p[:, 0], np.roll(p[:, 1], -1)) - np.dot(p[:, 1], np.roll(p[:, 0], -1))))
 
 
-def _damage_grid(P, fit, nominal, fld, z_to_v, z_range, tol, cut_height, section, mode) -> dict:
+def _damage_grid(P, fit, nominal, fld, z_to_v, z_range, tol, cut_height, section, mode, flow=None) -> dict:
     """Depth map on (row, u-bin) cells, the damaged regions, their volumes (module doc §3, §5)."""
     z_lo, z_hi = z_range
     signed, w, normal = fit["signed"], fit["weights"], fit["normal"]
@@ -355,7 +367,7 @@ def _damage_grid(P, fit, nominal, fld, z_to_v, z_range, tol, cut_height, section
         elif not have.any():
             mean[r] = 0.0
     v_rows = np.interp(z_rows, z_to_v[0], z_to_v[1])
-    ds, kappa, chord, _ = _profile_rows(nominal, v_rows, _U_BINS)
+    ds, kappa, chord, _ = _profile_rows(nominal, v_rows, _U_BINS, flow)
     below_cut = (z_rows <= cut)[:, None]
     damaged = (mean > tol) & below_cut
     grown = ndimage.binary_dilation(damaged, structure=np.ones((3, 3), bool)) & below_cut
