@@ -143,3 +143,22 @@ def test_sections_plan_judges_the_parameters(tmp_path):
     assert all(row["difference"]["te_radius"] is not None for row in rows)
     r = run("sections", SAMPLE / "measured_plan.csv", "--plan", plan)
     assert r.returncode == 2 and "--nominal" in r.stderr
+
+
+@pytest.mark.timeout(600)
+def test_flow_puts_the_le_zone_at_the_upstream_end(inspected, tmp_path):
+    """Issue 24: ``--flow`` decides which end gets the LE zone. The sample's LE is upstream for
+    +x: the same zones as without it; reversed, each section's LE zone holds the points the
+    default calls its TE."""
+    summary, out = inspected
+    res = {}
+    for flow in ("1,0,0", "-1,0,0"):
+        r = run("deviation", SAMPLE / "measured_plan.csv", "--nominal", SAMPLE / "nominal.step", "--plan",
+                out / "tight.toml", f"--flow={flow}", "--json", "--quiet")
+        assert r.returncode == 0, r.stderr[-3000:]
+        res[flow] = json.loads(r.stdout)
+    for s0, s1, s2 in zip(summary["sections"], res["1,0,0"]["sections"], res["-1,0,0"]["sections"]):
+        points = {k: {z: v["points"] for z, v in s["profile"].items()} for k, s in (("0", s0), ("+", s1), ("-", s2))}
+        assert points["+"] == points["0"]
+        assert points["-"]["leading_edge"] == points["0"]["trailing_edge"]
+        assert points["-"]["trailing_edge"] == points["0"]["leading_edge"]

@@ -223,7 +223,7 @@ def _inspect(args, nominal):
 
     return inspect_measured(read_points(args.measured, require_sections=False), nominal, args.inspection_plan,
                             tolerance=args.tolerance, robust=args.robust, nominal_name=args.nominal,
-                            say=lambda msg: _say(args, msg))
+                            say=lambda msg: _say(args, msg), flow=getattr(args, "flow", None))
 
 
 def _crop(args, points, section, nominal):

@@ -27,7 +27,7 @@ class InspectionResult:
     table: dict | None        # section parameters {"rows", "names"} or {"error"}; None if not asked
 
 
-def _point_zones(pointset, ss) -> np.ndarray:
+def _point_zones(pointset, ss, flow=None) -> np.ndarray:
     """Zone of every point of ``pointset`` (file order) from the segmentation of its ordered
     sections. Points are matched by their coordinates (a section holds no repeated point:
     build_sections refuses them), so any file layout maps back; a dropped closing point
@@ -36,7 +36,7 @@ def _point_zones(pointset, ss) -> np.ndarray:
 
     from bladerecon.core.inspection.verdicts import FLANKS, point_zones
 
-    zones = point_zones([s.points for s in ss.sections], ss.span_axis, not ss.sections[0].reordered)
+    zones = point_zones([s.points for s in ss.sections], ss.span_axis, not ss.sections[0].reordered, flow)
     P = np.asarray(pointset.points, float)
     out = np.full(len(P), FLANKS, dtype=int)
     for k, (s, z) in enumerate(zip(ss.sections, zones)):
@@ -47,9 +47,10 @@ def _point_zones(pointset, ss) -> np.ndarray:
 
 
 def inspect_measured(pointset, nominal, plan, *, tolerance: float = 0.03, robust: bool = False,
-                     nominal_name: str = "nominal", say=None) -> InspectionResult:
+                     nominal_name: str = "nominal", say=None, flow: np.ndarray | None = None) -> InspectionResult:
     """Fit (the plan's ``fit.mode``), measure and judge ``pointset`` (a sectioned
-    :class:`PointSet`) against ``nominal`` (:class:`bladerecon.fc.deviation.Nominal`)."""
+    :class:`PointSet`) against ``nominal`` (:class:`bladerecon.fc.deviation.Nominal`). ``flow``
+    (the direction the fluid travels): the LE zone and parameters at every section's upstream end."""
     from bladerecon.core.analysis.alignment import Alignment, apply_transform
     from bladerecon.core.inspection.verdicts import halfwidths, inspect_blade
     from bladerecon.core.inspection.zone_fit import zone_fit
@@ -65,7 +66,7 @@ def inspect_measured(pointset, nominal, plan, *, tolerance: float = 0.03, robust
     names = list(pointset.section_names)
     ss = build_sections(pointset)
     say("zones: segmenting every section (LE, TE, flanks)")
-    zone = _point_zones(pointset, ss)
+    zone = _point_zones(pointset, ss, flow)
     hw = halfwidths(plan, section, zone, names)
     mode = plan.fit_mode
     res = measure_deviation(P0, nominal, "rigid" if mode == "zone" else mode, tolerance,
@@ -98,7 +99,8 @@ def inspect_measured(pointset, nominal, plan, *, tolerance: float = 0.03, robust
         M = res.alignment.matrix if res.alignment is not None else np.eye(4)
         try:
             rows = compare_section_parameters([apply_transform(s.points, M) for s in ss.sections], ss.span_axis,
-                                              not ss.sections[0].reordered, nominal.shape, name=nominal_name)
+                                              not ss.sections[0].reordered, nominal.shape, name=nominal_name,
+                                              flow=flow)
             table = {"rows": rows, "names": [s.name for s in ss.sections]}
         except BladeReconError as err:
             say(f"no section parameters: {err}")

@@ -41,13 +41,14 @@ LEADING_EDGE, TRAILING_EDGE, FLANKS = 0, 1, 2
 
 
 def point_zones(section_points: list[np.ndarray], span_axis: np.ndarray | None = None,
-                first_point_is_measured: bool = True) -> list[np.ndarray]:
+                first_point_is_measured: bool = True, flow: np.ndarray | None = None) -> list[np.ndarray]:
     """Zone of every point (LEADING_EDGE, TRAILING_EDGE, FLANKS) of each ordered closed
-    section (m_k, 3), from the segmentation (:func:`segment_sections`) of the points."""
+    section (m_k, 3), from the segmentation (:func:`segment_sections`) of the points; with
+    ``flow`` the LE is every section's upstream end."""
     from bladerecon.core.sections.parameters import segment_sections
     from bladerecon.core.sections.segmentation import LE, TE
 
-    segs = segment_sections(section_points, span_axis, first_point_is_measured)
+    segs = segment_sections(section_points, span_axis, first_point_is_measured, flow=flow)
     out = []
     for seg in segs:
         z = np.full(len(seg.labels), FLANKS, dtype=int)
