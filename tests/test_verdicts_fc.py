@@ -93,3 +93,28 @@ def test_workbench_report_has_the_verdicts(analysis, tmp_path):
     assert [s["verdict"] for s in summary["sections"]] == [ln.split(": ")[1] for ln in obj.SectionVerdicts]
     page = (tmp_path / "report" / "report.html").read_text(encoding="utf-8")
     assert page.index("Verdict:") < page.index("Statistics")
+
+
+@pytest.mark.timeout(600)
+def test_flow_direction_gives_the_cli_verdicts_of_the_same_flow(analysis):
+    """Issue 24: FlowDirection on the analysis puts the Plan's LE zone upstream, as ``--flow``
+    does in the CLI; reversed, the verdicts are those of ``--flow=-1,0,0``."""
+    doc, obj, plan = analysis
+    before, before_max = list(obj.SectionVerdicts), obj.MaxNormalised
+    try:
+        obj.FlowDirection = FreeCAD.Vector(-1, 0, 0)
+        doc.recompute()
+        assert obj.Status in ("", "ok"), obj.Status
+        env = dict(os.environ, PYTHONPATH=str(REPO))
+        r = subprocess.run([sys.executable, "-m", "bladerecon", "deviation", str(POINTS), "--nominal", str(NOMINAL),
+                            "--plan", str(plan), "--flow=-1,0,0", "--json", "--quiet"], capture_output=True, text=True,
+                           env=env, timeout=600)
+        assert r.returncode == 0, r.stderr[-2000:]
+        cli = json.loads(r.stdout)
+        assert [line.split(":")[1].strip() for line in obj.SectionVerdicts] == [s["verdict"] for s in cli["sections"]]
+        assert obj.MaxNormalised == pytest.approx(cli["fit"]["max_normalised"], rel=1e-6)
+        assert abs(obj.MaxNormalised - before_max) > 1e-3 * before_max   # the tight LE zone now sits on the TE
+    finally:
+        obj.FlowDirection = FreeCAD.Vector(0, 0, 0)
+        doc.recompute()
+    assert list(obj.SectionVerdicts) == before and obj.MaxNormalised == pytest.approx(before_max, rel=1e-9)

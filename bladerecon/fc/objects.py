@@ -522,6 +522,9 @@ class DeviationAnalysis(_Feature):
         ("App::PropertyFloat", "Tolerance", "Input", "profile tolerance ±mm", 0),
         ("App::PropertyFile", "Plan", "Input", "inspection plan (TOML, docs/verdicts.md): pass/fail per section, "
                                                "zone and parameter; its [fit] replaces Alignment", 0),
+        ("App::PropertyVector", "FlowDirection", "Input",
+         "direction the fluid travels: the Plan's LE zone and parameters at every section's upstream end; "
+         "(0,0,0) = not known (the segmentation's rule decides)", 0),
         ("App::PropertyString", "Verdict", "Verdict", "pass or fail against the Plan (empty without a plan)", 1),
         ("App::PropertyStringList", "SectionVerdicts", "Verdict", "per section: pass, or fail and what failed", 1),
         ("App::PropertyFloat", "MaxNormalised", "Verdict",
@@ -559,13 +562,14 @@ class DeviationAnalysis(_Feature):
     def compute(self, obj: Any) -> None:
         inputs = (obj.Measured, obj.Nominal, obj.Surface, obj.Alignment, obj.Tolerance, bool(obj.RobustFit))
         plan = getattr(obj, "Plan", "") or ""
+        flow = flow_of(obj) if plan else None          # the flow matters to the plan's zones only
         ready, self.precomputed = getattr(self, "precomputed", None), None
-        if ready is not None and ready[0] == deviation_key(*inputs, plan=plan):   # measured off the GUI thread
+        if ready is not None and ready[0] == deviation_key(*inputs, plan=plan, flow=flow):   # measured off the GUI thread
             outcome = ready[1]
             if isinstance(outcome, BaseException):
                 raise outcome
         else:
-            job = deviation_job(*inputs, obj.Label, plan=plan)
+            job = deviation_job(*inputs, obj.Label, plan=plan, flow=flow)
             with _Progress(f"{obj.Label}: measuring against {job.nominal_label}", 3) as progress:
                 outcome = measure_job(job, progress.step)
         store_measurement(obj, outcome)
@@ -595,6 +599,7 @@ class DeviationJob:
     key: tuple
     plan: str = ""                  # inspection plan file (issue 19), "" for none
     pointset: Any = None            # the measured PointSet (sections) when there is a plan
+    flow: Any = None                # direction the fluid travels, for the plan's zones (issue 24)
 
 
 @dataclass
@@ -610,7 +615,8 @@ class DeviationMeasurement:
 
 
 def deviation_job(measured: Any, nominal: Any, surface: Any, alignment: str, tolerance: float, robust: bool,
-                  label: str = "Deviation analysis", copy_shape: bool = False, plan: str = "") -> DeviationJob:
+                  label: str = "Deviation analysis", copy_shape: bool = False, plan: str = "",
+                  flow: np.ndarray | None = None) -> DeviationJob:
     """The :class:`DeviationJob` of these inputs (document objects), checked: one-line errors.
     ``copy_shape``: the job holds a copy of the nominal's shape (to measure in a worker thread
     while the document may change)."""
@@ -632,12 +638,12 @@ def deviation_job(measured: Any, nominal: Any, surface: Any, alignment: str, tol
         read_inspection_plan(plan)                      # a bad plan: its one-line error now, not in the worker
     return DeviationJob(points, ps.source, shape.copy() if copy_shape else shape, nominal.Label, core, alignment,
                         float(tolerance), bool(robust), deviation_key(measured, nominal, surface, alignment, tolerance,
-                                                                      robust, plan=plan),
-                        plan, ps if plan else None)
+                                                                      robust, plan=plan, flow=flow),
+                        plan, ps if plan else None, flow)
 
 
 def deviation_key(measured: Any, nominal: Any, surface: Any, alignment: str, tolerance: float, robust: bool,
-                  plan: str = "") -> tuple:
+                  plan: str = "", flow: np.ndarray | None = None) -> tuple:
     """What names the inputs of a measurement without reading them: the objects, their shapes
     (a MeasuredPoints gets a new shape whenever its points change: a recompute makes it), the
     options."""
@@ -648,6 +654,8 @@ def deviation_key(measured: Any, nominal: Any, surface: Any, alignment: str, tol
 
     key = (shape_of(measured), getattr(measured, "PointCount", None), shape_of(nominal), shape_of(surface),
            alignment, float(tolerance), bool(robust))
+    if flow is not None:
+        key += (tuple(float(c) for c in flow),)
     return key + ((plan, _mtime(plan)),) if plan else key
 
 
@@ -680,7 +688,7 @@ def measure_job(job: DeviationJob, step: Any = None) -> DeviationMeasurement:
         from bladerecon.fc.inspection import inspect_measured
 
         inspection = inspect_measured(job.pointset, nominal, read_inspection_plan(job.plan), tolerance=job.tolerance,
-                                      robust=job.robust, nominal_name=job.nominal_label)
+                                      robust=job.robust, nominal_name=job.nominal_label, flow=job.flow)
         res, verdicts = inspection.result, inspection.verdicts
         step()
         if len(grid):
