@@ -168,3 +168,12 @@ def test_bad_values_and_non_planar_sections_are_one_line(balls):
             "--cloud-scale", "1000", "--slice-radii", "150.8,179.6,208.6", "--slab", "12", "--slab-keep", "--quiet",
             "--probe-radius", "0.5")
     assert r.returncode == 2 and "not planar" in r.stderr and len(r.stderr.strip().splitlines()) == 1
+
+
+def test_compensation_with_a_crop(balls):
+    """--span-range with --probe-radius: each section is compensated whole, then cropped."""
+    r = run("deviation", balls, "--nominal", SAMPLE / "nominal.step", "--json", "--quiet", "--probe-radius", "1.5",
+            "--span-range", "10:90")
+    assert r.returncode == 0, r.stderr
+    out = json.loads(r.stdout)
+    assert out["max_abs"] < 0.002 and out["cropped"]["points_kept"] == 4 * 200

@@ -199,3 +199,29 @@ def test_a_real_cloud_as_binary_ply_slices_as_its_text(tmp_path):
     for key in ("max", "rms"):
         assert res[".ply"]["fit"][key] == res[".txt"]["fit"][key], key
     assert res[".ply"]["surface"] == res[".txt"]["surface"]
+
+
+def test_what_real_writers_put_in_a_header(tmp_path):
+    """Padding fields named ``_`` (PCL), a tab after DATA, a comment that is not ASCII, a line of
+    spaces among the rows (its line number is skipped, as numpy skips it); a coordinate given
+    twice is one line."""
+    P, _ = _cloud(10)
+    head = ("# .PCD v0.7\nVERSION 0.7\nFIELDS x y z _ _\nSIZE 4 4 4 1 1\nTYPE F F F U U\nCOUNT 1 1 1 4 4\n"
+            "WIDTH 10\nHEIGHT 1\nPOINTS 10\nDATA\tbinary\n")
+    table = np.zeros(10, np.dtype([("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("a", "u1", (4,)), ("b", "u1", (4,))]))
+    table["x"], table["y"], table["z"] = P.T
+    (tmp_path / "pad.pcd").write_bytes(head.encode() + table.tobytes())
+    assert np.array_equal(read_points(tmp_path / "pad.pcd", require_sections=False).points,
+                          P.astype(np.float32).astype(float))
+    raw = write_ply(tmp_path / "c.ply", P).read_bytes().replace(b"comment written", "comment gemessen für".encode())
+    (tmp_path / "c.ply").write_bytes(raw)
+    assert read_points(tmp_path / "c.ply", require_sections=False).format == "ply-binary"
+    lines = write_ply(tmp_path / "w.ply", P, fmt="ascii").read_text().splitlines()
+    lines.insert(9, "   \t")                        # between the first and the second row
+    (tmp_path / "w.ply").write_text("\n".join(lines) + "\n")
+    ps = read_points(tmp_path / "w.ply", require_sections=False)
+    assert np.array_equal(ps.points, P) and ps.line[:3].tolist() == [9, 11, 12]
+    text = write_ply(tmp_path / "x.ply", P).read_text(encoding="latin-1")
+    (tmp_path / "x.ply").write_bytes(text.replace("property float z", "property float z\nproperty float x")
+                                     .encode("latin-1"))
+    assert "'x' is given twice" in _error(tmp_path / "x.ply")

@@ -148,18 +148,13 @@ def _run(args: argparse.Namespace, temps: dict) -> dict:
     nominal_warning = blade_like_warning(nominal)
     if nominal_warning:         # a warning, not a refusal: a user may compare with any shape on purpose
         _say(args, f"warning: {nominal_warning}")
-    points, section, crop = _crop(args, points, section, nominal)
-    t_read = time.perf_counter()
-    if args.align != "none":
-        _say(args, f"best fit ({args.align})")
-    inspection = None
     from bladerecon.cli.sections import compensation_of
     compensation = compensation_of(args)
     if compensation is not None and args.inspection_plan is not None:
         raise BladeReconError("--probe-radius and --coating are not applied with --plan yet: compensate the "
                               "points first (sections or reconstruct), or leave the options out")
     offset = 0.0
-    if compensation is not None:
+    if compensation is not None:      # before any crop: a section is compensated whole
         if section is not None:       # measured sections: along each section curve's normal, in its plane
             points = _compensate_sections(args, points, section, names, lines)
             compensation["normals"] = "section curve"
@@ -168,6 +163,11 @@ def _run(args: argparse.Namespace, temps: dict) -> dict:
             compensation["normals"] = "nominal"
         _say(args, f"moving the points {compensation['offset_mm']:g} mm toward the material along the "
                    f"{compensation['normals']} normals (probe radius + coating)")
+    points, section, crop = _crop(args, points, section, nominal)
+    t_read = time.perf_counter()
+    if args.align != "none":
+        _say(args, f"best fit ({args.align})")
+    inspection = None
     if args.inspection_plan is not None:
         inspection = _inspect(args, nominal)
         res = inspection.result

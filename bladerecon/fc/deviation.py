@@ -341,7 +341,14 @@ def measure_deviation(points: np.ndarray, nominal: Nominal, align: str = "none",
     P = np.asarray(points, float)
     check_units(P, nominal, source)
     if offset:
-        P = P - offset * nominal.measure(P).normal
+        # along the nominal's normals at the feet; with a best fit asked for, the feet after a first
+        # fit (a cloud in its own frame has no good feet before), normals taken back into its frame
+        R = np.eye(3)
+        Q = P
+        if align != "none":
+            M = best_fit(P, nominal.projector(), align, robust=robust).matrix
+            Q, R = apply_transform(P, M), M[:3, :3]
+        P = P - offset * (nominal.measure(Q).normal @ R)
     t1 = time.perf_counter()
     alignment = None
     if align != "none":

@@ -87,14 +87,10 @@ def _header_lines(source: str, raw: bytes, what: str, last: str) -> tuple[list[s
         if end < 0:
             raise BladeReconError(f"{source}: {what} header without a '{last}' line in its first "
                                   f"{_HEADER_LIMIT // 1024} KB: the file is cut short or not {what}")
-        try:
-            text = raw[at:end].decode("ascii").strip()
-        except UnicodeDecodeError:
-            raise BladeReconError(f"{source}, line {len(lines) + 1}: {what} header line is not ASCII text: "
-                                  f"{shown(raw[at:end].decode('latin-1'), 60)}") from None
+        text = raw[at:end].decode("latin-1").strip()          # keywords are ASCII; a comment may not be
         lines.append(text)
         at = end + 1
-        if text.split(" ", 1)[0] == last:
+        if text.split(None, 1)[:1] == [last]:
             return lines, at
 
 
@@ -169,6 +165,21 @@ def _vertex_element(source: str, elements: list[_Element]) -> tuple[int, _Elemen
     return k, v
 
 
+def _dtype(source: str, fields: list, order: str, where: str) -> np.dtype:
+    """A structured dtype of ``fields`` ((name, type) or (name, type, count)); a coordinate or
+    normal given twice is refused, other repeated names (PCD's ``_`` padding) are numbered."""
+    seen: dict[str, int] = {}
+    out = []
+    for f in fields:
+        name = f[0]
+        if name in seen and (name in "xyz" or name in _NORMALS["ply"] + _NORMALS["pcd"]):
+            raise BladeReconError(f"{source}, {where}: '{name}' is given twice: a point file needs it once")
+        seen[name] = seen.get(name, 0) + 1
+        unique = name if seen[name] == 1 else f"{name}#{seen[name]}"
+        out.append((unique, order + f[1]) + tuple(f[2:]))
+    return np.dtype(out)
+
+
 def _columns(names: list[str], table, kind: str):
     P = np.column_stack([np.asarray(table[c], dtype=float) for c in "xyz"])
     normal = _NORMALS[kind]
@@ -181,6 +192,7 @@ def _read_ply(source: str, raw: bytes) -> Scan:
     fmt, elements, body, header_lines = _ply_header(source, raw)
     k, v = _vertex_element(source, elements)
     names = [n for n, _ in v.props]
+    _dtype(source, [(n, "f8") for n in names], "<", f"line {v.line}")       # a coordinate given twice: refused
     if fmt == "ascii":
         before = sum(e.count for e in elements[:k])               # one row per item, lists included
         return _ascii_rows(source, raw, body, header_lines, before, v.count, len(names), names, "ply",
@@ -189,8 +201,8 @@ def _read_ply(source: str, raw: bytes) -> Scan:
         raise BladeReconError(f"{source}: binary PLY with a list element ('{elements[0].name}') before the "
                               "vertices is not read: write the vertex element first")
     order = "<" if fmt == "binary_little_endian" else ">"
-    dtype = np.dtype([(n, order + t) for n, t in v.props])
-    start = body + sum(e.count * np.dtype([(n, order + t) for n, t in e.props]).itemsize for e in elements[:k])
+    dtype = _dtype(source, v.props, order, f"line {v.line}")
+    start = body + sum(e.count * _dtype(source, e.props, order, f"line {e.line}").itemsize for e in elements[:k])
     need = v.count * dtype.itemsize
     have = len(raw) - start
     if have < need:
@@ -208,10 +220,13 @@ def _ascii_rows(source: str, raw: bytes, body: int, header_lines: int, skip: int
     """``count`` rows of ``ncol`` numbers after ``skip`` rows of the body (numpy's parser; on a
     bad row, the row is found and named)."""
     tail = raw[body:].replace(b"\r\n", b"\n").replace(b"\r", b"\n")
-    newline = np.flatnonzero(np.frombuffer(tail, dtype=np.uint8) == 10)
+    byte = np.frombuffer(tail, dtype=np.uint8)
+    newline = np.flatnonzero(byte == 10)
     starts = np.concatenate([[0], newline + 1])
     ends = np.concatenate([newline, [len(tail)]])
-    filled = np.flatnonzero(ends > starts)                           # blank lines are no rows
+    # a line with nothing but spaces or tabs is blank (numpy's parser skips it too): no row
+    inked = np.concatenate([[0], np.cumsum((byte != 32) & (byte != 9) & (byte != 10))])
+    filled = np.flatnonzero(inked[ends] > inked[starts])
     if len(filled) < skip + count:
         raise BladeReconError(f"{source}: the {kind.upper()} file has {max(len(filled) - skip, 0)} vertex rows, "
                               f"but {says}: the file was cut short or the count is wrong")
@@ -319,7 +334,8 @@ def _read_pcd(source: str, raw: bytes) -> Scan:
                               "binary or ascii (e.g. pcl_convert_pcd_ascii_binary FILE OUT 1)")
     if data != "binary":
         raise _bad_header(source, len(lines), lines[-1], "PCD DATA must be ascii, binary or binary_compressed")
-    dtype = np.dtype([(f, "<" + t) if c == 1 else (f, "<" + t, (c,)) for f, t, c in np_types])
+    dtype = _dtype(source, [(f, t) if c == 1 else (f, t, (c,)) for f, t, c in np_types], "<",
+                   f"line {head['FIELDS'][0]}")
     need = points * dtype.itemsize
     have = len(raw) - body
     if have < need:
