@@ -515,7 +515,12 @@ with part("report"):
         if not any(b.isVisible() for b in mw.statusBar().findChildren(W.QProgressBar)):
             return
         if any(isinstance(w, W.QMessageBox) and w.isVisible() for w in W.QApplication.topLevelWidgets()):
-            esc_timer.stop()                 # the "abort?" question: the answers press Yes
+            # a question is up: no key goes to it. After an Esc it is "abort?" (the answers press
+            # Yes): done. Before, it is "replace?" and the bar may still show from the run before
+            # (stopping here sent no Esc at all once, CI-like load, 2026-11-25): count again after it
+            if esc_sent:
+                esc_timer.stop()
+            busy_since.clear()
             return
         now = time.time()
         busy_since.append(now)
