@@ -252,17 +252,11 @@ def _crop(args, points, section, nominal):
 def _compensate_sections(args, points, section, names, lines) -> np.ndarray:
     """The points (file order) moved by ``--probe-radius`` + ``--coating`` along their section
     curves' normals (:mod:`bladerecon.core.surface.compensation`)."""
-    from bladerecon.cli.sections import compensate
     from bladerecon.core.io.readers import PointSet
-    from bladerecon.core.sections.ordering import build_sections
+    from bladerecon.core.surface.compensation import compensate_points
 
-    ss = build_sections(PointSet(np.array(points), np.asarray(section), np.array(lines), tuple(names),
-                                 args.measured, "csv"))
-    where = {int(ln): i for i, ln in enumerate(lines)}
-    out = np.array(points, float)
-    for s in compensate(args, ss).sections:
-        out[[where[int(ln)] for ln in s.lines]] = s.points
-    return out
+    return compensate_points(PointSet(np.array(points), np.asarray(section), np.array(lines), tuple(names),
+                                      args.measured, "csv"), args.probe_radius, args.coating)
 
 
 def _section_table(args, res, nominal) -> dict:

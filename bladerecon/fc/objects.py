@@ -243,14 +243,9 @@ def point_set(obj: Any):
     if not offset:
         return ps
     # ProbeRadius / Coating: every point moved toward the material along its section curve's normal
-    from bladerecon.core.sections.ordering import build_sections
-    from bladerecon.core.surface.compensation import compensate_sections
+    from bladerecon.core.surface.compensation import compensate_points
 
-    where = {int(ln): i for i, ln in enumerate(lines)}
-    moved = np.array(ps.points, float)
-    for s in compensate_sections(build_sections(ps), *offset).sections:
-        moved[[where[int(ln)] for ln in s.lines]] = s.points
-    return PointSet(points=moved, section=ps.section, line=ps.line, section_names=ps.section_names,
+    return PointSet(points=compensate_points(ps, *offset), section=ps.section, line=ps.line, section_names=ps.section_names,
                     source=ps.source, format=ps.format)
 
 

@@ -31,7 +31,7 @@ from bladerecon.core.errors import BladeReconError
 from bladerecon.core.geometry.bspline import curve_derivatives
 from bladerecon.core.sections.ordering import Section, SectionSet
 
-__all__ = ["compensate_sections", "outward_normals"]
+__all__ = ["compensate_points", "compensate_sections", "outward_normals"]
 
 # the fitted curve overshoots the curvature where an edge circle meets a flank (a curvature jump):
 # a path is refused only when it turns tighter than this share of the offset
@@ -90,3 +90,16 @@ def compensate_sections(sections: SectionSet, probe_radius: float = 0.0, coating
         moved = np.asarray(s.points, float) - offset * n
         out.append(Section(index=s.index, name=s.name, points=moved, lines=np.array(s.lines), reordered=s.reordered))
     return SectionSet(sections=tuple(out), span_axis=np.array(sections.span_axis), source=sections.source)
+
+
+def compensate_points(pointset, probe_radius: float = 0.0, coating: float = 0.0) -> np.ndarray:
+    """The points of a sectioned :class:`~bladerecon.core.io.readers.PointSet`, in its own order,
+    moved as :func:`compensate_sections` moves them (matched back by their line numbers)."""
+    from bladerecon.core.sections.ordering import build_sections
+
+    lines = np.asarray(pointset.line)
+    order = np.argsort(lines, kind="stable")
+    out = np.array(pointset.points, float)
+    for s in compensate_sections(build_sections(pointset), probe_radius, coating).sections:
+        out[order[np.searchsorted(lines[order], np.asarray(s.lines))]] = s.points
+    return out
