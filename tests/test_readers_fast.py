@@ -66,14 +66,31 @@ def tables(draw):
             rows.append((f"{k} " if kind == "id-xyz" else "") + draw(st.sampled_from([" ", "\t", "  "])).join(cells))
             if k < n - 1 and rng.random() < 0.15:
                 rows.extend([""] * int(rng.integers(1, 3)))
+    if draw(st.booleans()):        # '#' lines: comments (quotes, Latin-1 letters, indented) and separators
+        for _ in range(draw(st.integers(1, 4))):
+            at = draw(st.integers(0, len(rows)))
+            if kind.startswith("csv") and at == 0:
+                at = 1 if rows else 0             # the header stays the first line that is not a comment
+            rows.insert(at, draw(st.sampled_from(["# probe 2 mm", "  # operator's note", "#", "# \"quoted\"",
+                                                  "\t# mesur\u00e9 \u00b5m", "## 3 4 5"])))
+        if kind.startswith("csv") and draw(st.booleans()):
+            rows.insert(0, "# exported by a CMM")
     return lead + newline.join(rows) + draw(st.sampled_from(["", newline]))
 
 
+@pytest.fixture(params=[4 << 20, 97, 1000], ids=["4MB", "97B", "1000B"])
+def block_bytes(request, monkeypatch):
+    """The fast path's block size: its own (one block) and small ones, so that files end up
+    cut into many blocks at every kind of line."""
+    monkeypatch.setattr(readers, "_BLOCK_BYTES", request.param)
+    return request.param
+
+
 @SETTINGS
-@given(text=tables(), require=st.booleans())
-def test_fast_and_careful_paths_agree(tmp_path, text, require):
+@given(text=tables(), require=st.booleans(), encoding=st.sampled_from(["utf-8", "latin-1"]))
+def test_fast_and_careful_paths_agree(tmp_path, block_bytes, text, require, encoding):
     path = tmp_path / "p.txt"
-    path.write_bytes(text.encode())
+    path.write_bytes(text.encode(encoding))
     try:
         expected = careful(path, require)
     except BladeReconError as err:
@@ -97,7 +114,7 @@ MUTATIONS = {
 
 @SETTINGS
 @given(text=tables(), mutation=st.sampled_from(sorted(MUTATIONS)), where=st.floats(0, 1))
-def test_mutated_files_get_the_careful_parsers_answer(tmp_path, text, mutation, where):
+def test_mutated_files_get_the_careful_parsers_answer(tmp_path, block_bytes, text, mutation, where):
     lines = text.replace("\r\n", "\n").split("\n")
     data = [k for k, ln in enumerate(lines) if ln.strip() and any(ch.isdigit() for ch in ln[:1] + ln[-1:])]
     if not data:

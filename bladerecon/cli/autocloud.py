@@ -81,7 +81,7 @@ def read_input(args: argparse.Namespace):
                                   "leave out --slice / --slice-at / --slice-radii")
         return realdata.read_input(args)
     check_input(args.input, "INPUT")
-    ps = read_points(args.input, require_sections=False)
+    ps = read_points(args.input, require_sections=False, memory_limit=getattr(args, "memory_limit", None))
     if ps.structured:           # labelled sections (even one: the section path names what is missing)
         if own:
             raise BladeReconError(f"--{own[0].replace('_', '-')} applies to an unordered cloud; "

@@ -70,6 +70,8 @@ def add_lot_options(p) -> None:
                                                         "and lot/ are replaced)")
     p.add_argument("--json", action="store_true", help="print the lot summary object to stdout")
     p.add_argument("--quiet", action="store_true", help="no progress messages on stderr")
+    from bladerecon.core.io.memory import add_memory_option
+    add_memory_option(p)
 
 
 def _say(args, msg: str) -> None:
@@ -141,6 +143,20 @@ def _inputs(job: dict) -> dict:
             "options": job["options"], "position": job["position"] is not None}
 
 
+def _blade_memory_limit(args) -> float | None:
+    """Each blade's memory budget (GB): the lot's (``--memory-limit``, default half the memory
+    available) shared by the local workers that run at once; on a Dask scheduler each worker
+    machine's own default, or ``--memory-limit`` as given."""
+    from bladerecon.core.io.memory import GB, budget_bytes
+
+    if getattr(args, "scheduler", None):
+        return getattr(args, "memory_limit", None)
+    budget, _ = budget_bytes(getattr(args, "memory_limit", None))
+    if budget is None:
+        return None
+    return budget / GB / max(1, int(getattr(args, "workers", 1) or 1))
+
+
 def _run_blade(job: dict) -> dict:
     from bladerecon.cli import deviation
 
@@ -156,7 +172,8 @@ def _run_blade(job: dict) -> dict:
                                "align": opts["align"], "robust": opts["robust"], "tolerance": opts["tolerance"],
                                "csv": "deviations.csv", "report": "report" if opts["report"] else None,
                                "aligned": None, "force": False, "json": True, "quiet": True,
-                               "plan": opts.get("plan"), "inspection_plan": _inspection_plan(opts.get("plan"))})
+                               "plan": opts.get("plan"), "inspection_plan": _inspection_plan(opts.get("plan")),
+                               "memory_limit": job.get("memory_limit")})
     check_input(job["file"], "MEASURED")
     check_input(job["nominal"], "--nominal")
     moved = _move_aside(job["out"])
@@ -298,7 +315,8 @@ def make_jobs(blades, args, out: str, position: dict | None = None) -> list[dict
         jobs.append({"blade": b.name, "file": b.file, "shown": b.shown, "nominal": nominal,
                      "nominal_shown": os.path.basename(nominal), "serial": b.serial, "date": b.date,
                      "out": os.path.join(out, b.name), "out_shown": args.output, "options": options,
-                     "resume": bool(args.resume), "position": position})
+                     "resume": bool(args.resume), "position": position,
+                     "memory_limit": _blade_memory_limit(args)})
     return jobs
 
 

@@ -55,7 +55,7 @@ def _split(args, out: str, axis: np.ndarray):
     from bladerecon.core.lot.manifest import LotBlade
 
     _say(args, f"reading {args.scan}")
-    ps = read_points(args.scan, require_sections=False)
+    ps = read_points(args.scan, require_sections=False, memory_limit=getattr(args, "memory_limit", None))
     points = np.asarray(ps.points, float)
     check_coordinates(points, ps.line, args.scan)
     section = np.asarray(ps.section) if ps.structured else np.zeros(len(points), int)
@@ -88,6 +88,10 @@ def run_blisk(args: argparse.Namespace) -> dict:
 
     check_input(args.scan, "SCAN")
     check_input(args.nominal, "--nominal")
+    from bladerecon.core.io.memory import check_command
+    from bladerecon.core.io.readers import points_upper_bound
+    check_command("blisk", points_upper_bound(args.scan), getattr(args, "memory_limit", None), args.scan,
+                  workers=1 if args.scheduler else args.workers)
     if not os.path.isfile(args.nominal):
         raise BladeReconError(f"--nominal {args.nominal}: no such file")
     limits = read_plan_limits(args.plan) if args.plan else None

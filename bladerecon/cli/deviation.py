@@ -57,9 +57,8 @@ def add_parser(sub) -> None:
     d.add_argument("--span-axis", choices=("x", "y", "z"), default="z", help="axis of --span-range (default z)")
     d.add_argument("--crop-to-nominal", action="store_true",
                    help="leave out points outside the nominal's bounding box grown by 1 mm (counted)")
-    d.add_argument("--memory-limit", type=positive(1e6, "GB"), metavar="GB",
-                   help="memory budget (default half the memory available at start): a job whose estimated "
-                        "need is larger is refused before the nominal is read")
+    from bladerecon.core.io.memory import add_memory_option
+    add_memory_option(d)
     d.add_argument("--json", action="store_true", help="print one JSON summary object to stdout")
     d.add_argument("--quiet", action="store_true", help="no progress messages on stderr")
     one_line_errors(d)
@@ -116,11 +115,11 @@ def _read_measured(path: str):
     return _read_measured_lines(path)[:3]
 
 
-def _read_measured_lines(path: str):
+def _read_measured_lines(path: str, memory_limit: float | None = None):
     """As :func:`_read_measured`, and each point's file line (or a scan's vertex number)."""
     from bladerecon.core.io.readers import read_points
 
-    ps = read_points(path, require_sections=False)
+    ps = read_points(path, require_sections=False, memory_limit=memory_limit)
     check_coordinates(ps.points, ps.line, path)
     if not ps.structured:
         return np.asarray(ps.points, float), None, (), np.asarray(ps.line)
@@ -138,10 +137,12 @@ def _run(args: argparse.Namespace, temps: dict) -> dict:
         check_coordinates(points, None, args.measured)
         section, names, lines = None, (), None
     else:
-        points, section, names, lines = _read_measured_lines(args.measured)
-    from bladerecon.core.io.memory import check_budget, deviation_need
-    check_budget(f"deviation of {len(points)} points", deviation_need(len(points)),
-                 getattr(args, "memory_limit", None), "split the point file, or raise --memory-limit")
+        from bladerecon.core.io.memory import check_command
+        from bladerecon.core.io.readers import points_upper_bound
+        # before the file is read: its line count (a scan's header count) bounds the points
+        check_command("deviation", points_upper_bound(args.measured), getattr(args, "memory_limit", None),
+                      args.measured)
+        points, section, names, lines = _read_measured_lines(args.measured, getattr(args, "memory_limit", None))
     _say(args, f"{len(points)} points; reading nominal {args.nominal}")
     nominal = load_nominal(args.nominal)
     from bladerecon.fc.deviation import blade_like_warning

@@ -49,6 +49,8 @@ def add_parser(sub) -> None:
                    help="direction the fluid travels: every section's plan starts at its upstream (leading) edge")
     p.add_argument("--json", action="store_true", help="print the JSON summary on stdout")
     p.add_argument("--quiet", action="store_true", help="no progress messages on stderr")
+    from bladerecon.core.io.memory import add_memory_option
+    add_memory_option(p)
     one_line_errors(p)
     p.set_defaults(run=run_plan)
 
@@ -80,12 +82,16 @@ def _dense_sections(args, axis: np.ndarray, heights: np.ndarray) -> tuple[list[n
         size = np.array([bb.XLength, bb.YLength, bb.ZLength])
         # a section lies in the box across the axis: its length is about the box's perimeter there
         across = np.sqrt(np.maximum(size ** 2 - (size * axis) ** 2, 0.0))
-        check_samples("--step", args.step, 2.0 * float(across.sum()) * len(heights), what="cutting the nominal")
+        length = 2.0 * float(across.sum()) * len(heights)
+        check_samples("--step", args.step, length, what="cutting the nominal")
+        from bladerecon.core.io.memory import check_command
+        check_command("plan", int(length / args.step) + 1, getattr(args, "memory_limit", None), args.nominal,
+                      what="samples of the cut")
         origins = np.array([centre + (z - centre @ axis) * axis for z in heights])
         return cut_sections(args.nominal, origins, np.tile(axis, (len(origins), 1)), args.step, shape=shape), heights
     from bladerecon.core.io.readers import read_points
     from bladerecon.core.sections.ordering import build_sections
-    ps = read_points(args.nominal)
+    ps = read_points(args.nominal, memory_limit=getattr(args, "memory_limit", None))
     check_coordinates(ps.points, ps.line, args.nominal)
     ss = build_sections(ps)
     pts = _denoised([s.points for s in ss.sections], args)

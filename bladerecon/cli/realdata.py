@@ -118,13 +118,13 @@ def read_input(args: argparse.Namespace):
     from bladerecon.core.sections import slicing
     check_input(args.input, "INPUT")
     if not slicing_requested(args):
-        ps = read_points(args.input)
+        ps = read_points(args.input, memory_limit=getattr(args, "memory_limit", None))
         check_coordinates(ps.points, ps.line, args.input)
         return ps, None
     axis = np.eye(3)["xyz".index(args.slice_axis)]
     radii = _floats(args.slice_radii, "--slice-radii", positive_only=True) if args.slice_radii is not None else None
     at = _floats(args.slice_at, "--slice-at") if args.slice_at is not None else None
-    P, lines = _read_cloud(args.input, args.cloud_scale)
+    P, lines = _read_cloud(args.input, args.cloud_scale, getattr(args, "memory_limit", None))
     if radii is not None:
         slices = slicing.slice_cylinders(P, radii, axis, slab=args.slab, project=not args.slab_keep)
         kind = "cylinders"
@@ -142,13 +142,13 @@ def read_input(args: argparse.Namespace):
     return ps, summary
 
 
-def _read_cloud(path: str, scale: float):
+def _read_cloud(path: str, scale: float, memory_limit: float | None = None):
     """The cloud (mm, after ``--cloud-scale``): text only, file bytes in messages escaped,
     coordinates within ±1 km."""
     from bladerecon.core.sections import slicing
 
     try:
-        P, lines = slicing.read_cloud(path, scale)
+        P, lines = slicing.read_cloud(path, scale, memory_limit)
     except UnicodeDecodeError as err:
         raise BladeReconError(f"{shown(path, 200)}: not a text point file (byte 0x{err.object[err.start]:02x} at "
                               f"offset {err.start} is not UTF-8): give 'x y z' text lines") from None

@@ -55,6 +55,8 @@ def add_parser(sub) -> None:
                    help="direction the fluid travels: the leading edge is the upstream end of every section")
     add_compensation_options(r)
     r.add_argument("--quiet", action="store_true", help="no progress messages on stderr")
+    from bladerecon.core.io.memory import add_memory_option
+    add_memory_option(r)
     from bladerecon.cli.realdata import add_options as add_realdata_options
 
     add_realdata_options(r)
@@ -120,6 +122,11 @@ def _reconstruct(args: argparse.Namespace, say, step: str | None, report: str | 
     if args.pairing == "angle" and args.method == "approximate":
         raise BladeReconError("--pairing angle interpolates the paired points; use it without --method approximate")
     t_start = time.perf_counter()
+    from bladerecon.core.io.memory import check_command
+    from bladerecon.core.io.outputs import check_input
+    from bladerecon.core.io.readers import points_upper_bound
+    check_input(args.input, "INPUT")
+    check_command("reconstruct", points_upper_bound(args.input), args.memory_limit, args.input)
     say(f"reading {args.input}")
     from bladerecon.cli import autocloud
     pointset, slicing = autocloud.read_input(args)

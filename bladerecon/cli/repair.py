@@ -44,6 +44,8 @@ def add_parser(sub) -> None:
                         "the leading edge (without it: the blunter end)")
     d.add_argument("--json", action="store_true", help="print one JSON summary object to stdout")
     d.add_argument("--quiet", action="store_true", help="no progress messages on stderr")
+    from bladerecon.core.io.memory import add_memory_option
+    add_memory_option(d)
     one_line_errors(d)
     d.set_defaults(run=run_repair)
 
@@ -57,6 +59,9 @@ def run_repair(args: argparse.Namespace) -> dict:
     """Run the subcommand; returns the JSON summary. Nothing is written unless all of it succeeds."""
     check_input(args.measured, "MEASURED")
     check_input(args.nominal, "--nominal")
+    from bladerecon.core.io.memory import check_command
+    from bladerecon.core.io.readers import points_upper_bound
+    check_command("repair", points_upper_bound(args.measured), getattr(args, "memory_limit", None), args.measured)
     with Outputs(inputs=(args.measured, args.nominal)) as outs:
         temps = {"output": outs.file(args.output, "--output"),
                  "report": outs.folder(args.report, "--report", force=args.force)}

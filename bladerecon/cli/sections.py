@@ -106,6 +106,8 @@ def add_parser(sub) -> None:
                         "[parameters] limits (pass/fail per parameter and section; docs/verdicts.md)")
     p.add_argument("--json", action="store_true", help="print the list of sections as JSON on stdout")
     p.add_argument("--quiet", action="store_true", help="no progress messages on stderr")
+    from bladerecon.core.io.memory import add_memory_option
+    add_memory_option(p)
     one_line_errors(p)
     p.set_defaults(run=run_sections)
 
@@ -119,7 +121,7 @@ def _read_sections(path: str, args=None):
     """Ordered sections of a point file; with ``args``, compensated as its options say."""
     from bladerecon.core.io.readers import read_points
     from bladerecon.core.sections.ordering import build_sections
-    ps = read_points(path)
+    ps = read_points(path, memory_limit=getattr(args, "memory_limit", None))
     check_coordinates(ps.points, ps.line, path)
     ss = build_sections(ps)
     if args is not None:
@@ -168,6 +170,11 @@ def run_sections(args: argparse.Namespace) -> list:
     throat = _throat(args)
     check_input(args.input, "INPUT")
     check_input(args.nominal, "--nominal")
+    from bladerecon.core.io.memory import check_command
+    from bladerecon.core.io.readers import points_upper_bound
+    from bladerecon.core.io.memory import SECTIONS_NOMINAL, SECTIONS_PLOTS
+    check_command("sections", points_upper_bound(args.input), getattr(args, "memory_limit", None), args.input,
+                  extra=SECTIONS_NOMINAL * bool(args.nominal) + SECTIONS_PLOTS * bool(args.plots))
     plan = _inspection_plan(args)
     with Outputs(inputs=(args.input, args.nominal)) as outs:
         plots = outs.folder(args.plots, "--plots", force=args.force)

@@ -50,6 +50,8 @@ def add_parser(sub) -> None:
                         "seam constraint). Ignored for z-maps")
     p.add_argument("--json", action="store_true", help="print one JSON summary object to stdout")
     p.add_argument("--quiet", action="store_true", help="no progress messages on stderr")
+    from bladerecon.core.io.memory import add_memory_option
+    add_memory_option(p)
     one_line_errors(p)
     p.set_defaults(run=run_tspline)
 
@@ -74,6 +76,9 @@ def _check_coordinates(path: str) -> None:
 def run_tspline(args: argparse.Namespace) -> dict:
     """Run the subcommand; the STEP is put in place only when all of it succeeded."""
     check_input(args.input, "INPUT")
+    from bladerecon.core.io.memory import check_command
+    from bladerecon.core.io.readers import points_upper_bound
+    check_command("tspline", points_upper_bound(args.input), getattr(args, "memory_limit", None), args.input)
     with Outputs(inputs=(args.input,)) as outs:
         temp = outs.file(args.output, "--output")
         summary = _run(args, temp)

@@ -13,7 +13,8 @@ import os
 
 from bladerecon.core.errors import BladeReconError
 
-__all__ = ["available_bytes", "budget_bytes", "check_budget", "deviation_need", "GB"]
+__all__ = ["available_bytes", "budget_bytes", "check_budget", "deviation_need", "careful_read_need", "check_command",
+           "command_need", "add_memory_option", "GB"]
 
 GB = 1e9
 #: default budget: this share of the memory available when the command starts
@@ -25,6 +26,17 @@ DEVIATION_BASE = 0.40 * GB
 #: 16-pole face 0.25 GB at 31 000 points, 0.38 GB at 100 000, 0.73 GB at 1M; on the sample
 #: face 0.43 GB at 1M
 DEVIATION_PER_POINT = 500.0
+#: reading a point file, before a command's own work: the interpreter and numpy
+READ_BASE = 0.10 * GB
+#: the careful parser (comments after values, quotes, text labels, ``;`` and decimal commas)
+#: holds the lines and cells as Python strings: per line and per byte of file. Measured peak
+#: RSS over the ~60 MB base, 600 000 lines: 770 B a line (``S12,x,y,z``, 63 B lines), 615
+#: (``x;y;z`` with decimal commas, 28 B), 667 (900 000 ``x y z`` lines, 59 B)
+CAREFUL_BYTES_PER_LINE = 550.0
+CAREFUL_BYTES_PER_BYTE = 4.0
+#: a PLY/PCD scan: the file's bytes, a byte of mask each, then the points as float64.
+#: Measured: 3.3 (binary PLY with normals, 1M points) and 3.7 (ASCII PLY) bytes a byte
+SCAN_BYTES_PER_BYTE = 5.0
 
 
 def available_bytes() -> float | None:
@@ -57,9 +69,82 @@ def deviation_need(n_points: int) -> float:
     return DEVIATION_BASE + DEVIATION_PER_POINT * n_points
 
 
+#: every command that reads measured points: (base bytes, bytes per point), upper bounds of
+#: the peak total PSS measured on this project's runs (``bench/bench_memory.py``,
+#: ``bench/results/memory.md``). The point count is bounded before the file is read
+#: (:func:`bladerecon.core.io.readers.points_upper_bound`).
+COMMAND_NEED = {
+    "deviation": (DEVIATION_BASE, DEVIATION_PER_POINT),
+    # sections 3k-600k points: 0.11-0.28 GB; a whole-blade cloud 50k-800k: 0.29-0.38 GB;
+    # --slice 6 at 200k/400k/800k: 0.15/0.17/0.18 GB
+    "reconstruct": (0.40 * GB, 320.0),
+    # 3k-180k points: 0.05-0.10 GB (48k: 0.07 GB; 0.12 GB with --plots, 0.22 GB with --nominal:
+    # SECTIONS_NOMINAL and SECTIONS_PLOTS are added for those options)
+    "sections": (0.08 * GB, 300.0),
+    # blade sections 20k/100k/400k: 0.15/0.32/1.19 GB; --zmap 100k/400k/1M: 0.33/1.17/2.84 GB
+    "tspline": (0.15 * GB, 3200.0),
+    # damaged-blade clouds 15k/45k/150k/400k: 0.26/0.27/0.42/0.80 GB
+    "repair": (0.30 * GB, 1600.0),
+    # the scan split into blades and one local worker: 2.4k/240k/960k points 0.31/0.32/0.39 GB;
+    # each further worker adds its own interpreter and FreeCAD (DEVIATION_BASE)
+    "blisk": (0.40 * GB, 150.0),
+    # per dense sample of the cut (about the sections' length / --step): 6.7k/33k/133k/333k
+    # samples 0.21/0.27/0.41/0.45 GB
+    "plan": (0.25 * GB, 1000.0),
+}
+#: ``sections --nominal`` loads FreeCAD and the nominal; ``--plots`` loads matplotlib
+SECTIONS_NOMINAL = 0.20 * GB
+SECTIONS_PLOTS = 0.06 * GB
+#: what to do about a job over the budget, per command
+_ADVICE = {
+    "deviation": "split the point file, or raise --memory-limit",
+    "reconstruct": "thin the points (every k-th point of each section), or raise --memory-limit",
+    "sections": "thin the points (every k-th point of each section), or raise --memory-limit",
+    "tspline": "thin the cloud, or raise --memory-limit",
+    "repair": "thin the cloud, or raise --memory-limit",
+    "blisk": "thin the scan, use fewer --workers, or raise --memory-limit",
+    "plan": "give a larger --step, or raise --memory-limit",
+}
+
+
+def command_need(command: str, n_points: int) -> float:
+    """Peak memory (bytes) of ``command`` on ``n_points`` measured points, an upper bound."""
+    base, per_point = COMMAND_NEED[command]
+    return base + per_point * n_points
+
+
+def check_command(command: str, n_points: int, limit_gb: float | None, source: str, workers: int = 1,
+                  what: str = "points", extra: float = 0.0) -> None:
+    """Refuse ``command`` on a file of (at most) ``n_points`` points (or dense samples) when
+    its need is over the budget: one line, before anything is read or computed. ``workers``:
+    local worker processes beside the command's own; ``extra``: bytes its options add."""
+    need = command_need(command, n_points) + DEVIATION_BASE * max(0, workers - 1) + extra
+    check_budget(f"{command} of {source} (up to {n_points} {what}"
+                 + (f", {workers} workers" if workers > 1 else "") + ")", need, limit_gb, _ADVICE[command])
+
+
+def add_memory_option(parser) -> None:
+    """The ``--memory-limit GB`` option every command that reads points has."""
+    from bladerecon.core.io.outputs import positive
+
+    parser.add_argument("--memory-limit", type=positive(1e6, "GB"), metavar="GB",
+                        help="memory budget (default half the memory available at start): a job whose "
+                             "estimated need is larger is refused before the work starts")
+
+
+def careful_read_need(n_lines: int, n_bytes: int) -> float:
+    """Peak memory (bytes) of reading a file of ``n_lines`` lines and ``n_bytes`` bytes with
+    the careful parser, an upper bound."""
+    return READ_BASE + CAREFUL_BYTES_PER_LINE * n_lines + CAREFUL_BYTES_PER_BYTE * n_bytes
+
+
 def check_budget(what: str, need: float, limit_gb: float | None, advice: str) -> None:
     """Refuse (one line) a job whose estimated need is over the budget, before it starts."""
     budget, how = budget_bytes(limit_gb)
     if budget is not None and need > budget:
-        raise BladeReconError(f"{what} needs about {need / GB:.2f} GB of memory, more than the budget of "
-                              f"{budget / GB:.2f} GB ({how}): {advice}")
+        raise BladeReconError(f"{what} needs about {_amount(need)} of memory, more than the budget of "
+                              f"{_amount(budget)} ({how}): {advice}")
+
+
+def _amount(n_bytes: float) -> str:
+    return f"{n_bytes / GB:.2f} GB" if n_bytes >= 0.1 * GB else f"{n_bytes / 1e6:.0f} MB"

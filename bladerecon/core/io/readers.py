@@ -37,15 +37,16 @@ import tempfile
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Sequence
+from typing import Iterator, Sequence
 
 import numpy as np
 
 from bladerecon.core.errors import BladeReconError
+from bladerecon.core.io.memory import READ_BASE, SCAN_BYTES_PER_BYTE, careful_read_need, check_budget
 from bladerecon.core.io.outputs import shown
 from bladerecon.core.io.scanner import read_scan, sniff
 
-__all__ = ["PointSet", "read_points", "write_points_csv"]
+__all__ = ["PointSet", "points_upper_bound", "read_headerless_cloud", "read_points", "write_points_csv"]
 
 _NO_STRUCTURE = (
     "points have no section structure: add a 'section' column to the CSV or separate "
@@ -53,6 +54,8 @@ _NO_STRUCTURE = (
     "--slice N (planes) or --slice-radii R1,R2,.. (cylinders)"
 )
 _TEXT_CHECK_BYTES = 1 << 20      # NUL bytes in the first megabyte: not a text file
+_BLOCK_BYTES = 4 << 20           # plain tables are scanned this much at a time
+_MAX_MARKED_LINES = 100_000      # more '#' lines than this in a block: the careful parser
 _UNIT_SUFFIX = re.compile(r"[\s_]*[\[(]?\s*mm\s*[\])]?$")
 
 
@@ -103,7 +106,8 @@ class PointSet:
         return self.line[self.section == k]
 
 
-def read_points(path: str | os.PathLike, require_sections: bool = True) -> PointSet:
+def read_points(path: str | os.PathLike, require_sections: bool = True,
+                memory_limit: float | None = None) -> PointSet:
     """Read a point file (mm); the format ('csv', 'xyz-blocks', 'section-table', see the
     module docstring) is detected from the first line that is not blank or ``#``.
 
@@ -115,27 +119,41 @@ def read_points(path: str | os.PathLike, require_sections: bool = True) -> Point
     take (comments, quotes, text labels, a bad cell, decimal commas) goes to the careful parser,
     which names the file, line and column of what is wrong. Both give the same PointSet.
 
+    Memory: the first megabyte is checked for binary content before anything else is read;
+    plain numeric tables are scanned in blocks of 4 MB and parsed by numpy from the file, so
+    only the numbers are held (32 bytes a point, plus 8 a line); a file the careful parser must
+    read, or a scan, is first checked against the memory budget (``memory_limit`` GB, default
+    half the available memory; :mod:`bladerecon.core.io.memory`) from its size.
+
     Raises:
         BladeReconError: missing/unreadable/empty file, bad header or cell, NaN/inf,
-            wrong point count, or points with no section structure.
+            wrong point count, points with no section structure, or a file over the budget.
     """
     source = str(path)
     try:
-        return _read_points(source, require_sections)
+        return _read_points(source, require_sections, memory_limit)
     except BladeReconError as err:      # a file name with control characters: shown escaped
         if shown(source, len(source) + 1) == source:
             raise
         raise BladeReconError(str(err).replace(source, shown(source, 200))) from None
 
 
-def _read_points(source: str, require_sections: bool) -> PointSet:
-    raw = _read_bytes(source, text=False)
-    if sniff(raw):
-        return _scan_point_set(source, raw, require_sections)
-    _check_text(source, raw)
-    fast = _read_fast(source, raw, require_sections)
+def _read_points(source: str, require_sections: bool, memory_limit: float | None) -> PointSet:
+    head = _read_head(source)
+    if sniff(head):                      # a scan: binary bodies are read whole (12-56 bytes a point)
+        check_budget(f"reading {source}", READ_BASE + SCAN_BYTES_PER_BYTE * _size(source), memory_limit,
+                     "split the scan, or raise --memory-limit")
+        return _scan_point_set(source, _read_bytes(source, text=False), require_sections)
+    _check_text(source, head)
+    fast = _read_fast(source, require_sections)
     if fast is not None:
         return fast
+    # the careful parser holds the file's lines and cells as Python strings
+    check_budget(f"reading {source}", careful_read_need(_count_lines(source), _size(source)), memory_limit,
+                 "write it as a plain CSV (header x,y,z[,section], numeric section labels, no quotes or comments "
+                 "after values), which is read in blocks, "
+                 "or raise --memory-limit")
+    raw = _read_bytes(source, text=True)
     lines = _split_lines(raw)
     first = next((i for i, ln in enumerate(lines) if ln.strip() and not _is_comment(ln)), None)
     if first is None:
@@ -225,18 +243,71 @@ def _scan_point_set(source: str, raw: bytes, require_sections: bool) -> PointSet
                     source, scan.format, structured=False, normals=scan.normals, left_out=scan.left_out)
 
 
+def _open_error(source: str, err: OSError) -> BladeReconError:
+    if isinstance(err, FileNotFoundError):
+        return BladeReconError(f"{source}: file not found: check the path")
+    if isinstance(err, IsADirectoryError):
+        return BladeReconError(f"{source}: is a folder, not a point file: give the file")
+    return BladeReconError(f"{source}: cannot read the file ({err.strerror}): check its permissions")
+
+
+def _read_head(source: str) -> bytes:
+    """The file's first megabyte (all a check for binary content or a scan header needs), read
+    before anything else: a 2 GB file of NUL bytes is refused without being read."""
+    try:
+        with open(source, "rb") as fh:
+            head = fh.read(_TEXT_CHECK_BYTES)
+    except OSError as err:
+        raise _open_error(source, err) from None
+    if not head.strip() and len(head) < _TEXT_CHECK_BYTES:
+        raise BladeReconError(f"{source}: the file is empty: give one point per line")
+    return head
+
+
+def points_upper_bound(path: str | os.PathLike) -> int:
+    """At most this many points are in the file, found without reading it whole (for a memory
+    budget before the work): a scan's header count, else the text file's line count. A file
+    that cannot be read, or binary content, is the usual one-line error."""
+    source = str(path)
+    head = _read_head(source)
+    kind = sniff(head)
+    if kind is not None:
+        pattern = rb"\nelement[ \t]+vertex[ \t]+(\d+)" if kind == "ply" else rb"\nPOINTS[ \t]+(\d+)"
+        found = re.search(pattern, head[:1 << 16])
+        if found:
+            return int(found.group(1))
+        return _size(source) // 12 + 1         # the smallest record: three float32
+    _check_text(source, head)
+    return _count_lines(source)
+
+
+def _count_lines(source: str) -> int:
+    """The file's line count, read a block at a time (for the memory budget)."""
+    n, last = 0, b"\n"
+    try:
+        with open(source, "rb") as fh:
+            for block in iter(lambda: fh.read(_BLOCK_BYTES), b""):
+                n += block.count(b"\n") or block.count(b"\r")
+                last = block[-1:]
+    except OSError as err:
+        raise _open_error(source, err) from None
+    return n + (last not in (b"\n", b"\r"))
+
+
+def _size(source: str) -> int:
+    try:
+        return os.stat(source).st_size
+    except OSError:
+        return 0
+
+
 def _read_bytes(source: str, text: bool = True) -> bytes:
     """The file's bytes; a missing, unreadable or empty file is a one-line error, and so is
     binary content when ``text``."""
     try:
         raw = Path(source).read_bytes()
-    except FileNotFoundError:
-        raise BladeReconError(f"{source}: file not found: check the path") from None
-    except IsADirectoryError:
-        raise BladeReconError(f"{source}: is a folder, not a point file: give the file") from None
     except OSError as err:
-        raise BladeReconError(f"{source}: cannot read the file ({err.strerror}): "
-                              "check its permissions") from None
+        raise _open_error(source, err) from None
     if not raw[:4096].strip() and not raw.strip():      # the whole file copied only when its start is blank
         raise BladeReconError(f"{source}: the file is empty: give one point per line")
     if text:
@@ -323,7 +394,7 @@ def _to_float(source: str, idx: list[int], cells: list[str], column: str,
 
 def _point_set(source: str, fmt: str, xyz: np.ndarray, section: np.ndarray,
                idx: list[int], names: Sequence[str], structured: bool = True) -> PointSet:
-    return PointSet(points=np.ascontiguousarray(xyz, dtype=float), section=section.astype(int),
+    return PointSet(points=np.ascontiguousarray(xyz, dtype=float), section=section.astype(int, copy=False),
                     line=np.asarray(idx, dtype=int) + 1, section_names=tuple(names),
                     source=source, format=fmt, structured=structured)
 
@@ -335,80 +406,191 @@ def _require_structure(source: str, idx: list[int], block: np.ndarray) -> None:
 
 # --- the vectorised path ----------------------------------------------------------------
 
-def _read_fast(source: str, raw: bytes, require_sections: bool) -> PointSet | None:
+def read_headerless_cloud(path: str | os.PathLike, memory_limit: float | None = None) -> PointSet:
+    """An unordered cloud of ``x,y,z`` / ``id,x,y,z`` rows separated by commas or semicolons
+    with no header (as scanners and CAD programs export them; :func:`read_points` asks for a
+    header there, where four columns could be ``section,x,y,z``). Read in blocks like a plain
+    table; a bad row is named by its line."""
+    source = str(path)
+    _check_text(source, _read_head(source))
+    fast = _read_fast(source, False, headerless=True)
+    if fast is not None:
+        return fast
+    check_budget(f"reading {source}", careful_read_need(_count_lines(source), _size(source)), memory_limit,
+                 "give it a header x,y,z (then it is read in blocks), or raise --memory-limit")
+    pts, lines = [], []
+    with open(source, encoding="utf-8-sig", errors="replace") as fh:
+        for no, text in enumerate(fh, 1):
+            cells = text.strip()
+            if not cells or cells.startswith("#"):
+                continue
+            values = cells.replace(",", " ").replace(";", " ").split()
+            if len(values) not in (3, 4):
+                raise BladeReconError(f"{source}, line {no}: expected 'x,y,z' or 'id,x,y,z', got {len(values)} values")
+            try:
+                pts.append([float(c) for c in values[-3:]])
+            except ValueError:
+                raise BladeReconError(f"{source}, line {no}: '{shown(cells, 60)}' is not a line of numbers") from None
+            lines.append(no - 1)
+    if not pts:
+        raise BladeReconError(f"{source}: no points in the file: give one point per line")
+    P = np.asarray(pts, float)
+    if not np.all(np.isfinite(P)):
+        raise BladeReconError(f"{source}: the cloud holds NaN or infinite coordinates")
+    return _point_set(source, "xyz-blocks", P, np.zeros(len(P), dtype=int), np.asarray(lines), ["1"],
+                      structured=False)
+
+
+def _read_fast(source: str, require_sections: bool, headerless: bool = False) -> PointSet | None:
     """A plain numeric CSV (``,`` with a header) or ``x y z`` / ``id x y z`` blocks, read with
-    numpy's C parser and the line structure found on the bytes; None for anything else (the
-    careful parser then reads it, and names what is wrong)."""
-    if raw.startswith(b"\xef\xbb\xbf"):
-        raw = raw[3:]
-    if b"\r" in raw:
-        raw = raw.replace(b"\r\n", b"\n").replace(b"\r", b"\n")
-    if b"#" in raw or b'"' in raw or b"'" in raw:
+    numpy's C parser and the line structure found on the bytes, a block of 4 MB at a time;
+    None for anything else (the careful parser then reads it, and names what is wrong).
+    ``#`` lines (comments, section separators) are taken; a ``#`` after a value is not."""
+    scan = _scan_lines(source)
+    if scan is None:
         return None
-    start, first = 0, 0                       # byte offset and 0-based number of the first line
-    while True:
-        end = raw.find(b"\n", start)
-        line = raw[start:] if end < 0 else raw[start:end]
-        if line.strip():
-            break
-        if end < 0:
-            return None
-        start, first = end + 1, first + 1
+    data, head, encoding = scan
+    first = int(data[0])
     try:
-        head = line.decode("ascii").strip()
+        head_text = head.decode("ascii").strip()
     except UnicodeDecodeError:
         return None
-    tokens = re.split(r"[,;\s]+", head)
+    tokens = re.split(r"[,;\s]+", head_text)
     n_numeric = sum(_is_number(t) for t in tokens)
     if n_numeric == 0:                                   # a CSV header
-        sep, names, col = _header(source, head, first)
-        if sep != "," or end < 0:
+        sep, names, col = _header(source, head_text, first)
+        if sep != "," or data.size < 2:
             return None
-        body, body_first, ncol = raw[end + 1:], first + 1, len(names)
+        idx, skip, ncol = data[1:], first + 1, len(names)
         pick = [col[c] for c in "xyz"] + ([col["section"]] if "section" in col else [])
-    elif n_numeric == len(tokens) in (3, 4) and "," not in head and ";" not in head:
-        sep, body, body_first, ncol = None, raw[start:], first, len(tokens)
+    elif n_numeric == len(tokens) in (3, 4) and "," not in head_text and ";" not in head_text:
+        sep, idx, skip, ncol = None, data, first, len(tokens)
+        pick = list(range(ncol - 3, ncol))
+    elif headerless and n_numeric == len(tokens) in (3, 4):
+        sep = ";" if ";" in head_text else ","
+        idx, skip, ncol = data, first, len(tokens)
         pick = list(range(ncol - 3, ncol))
     else:
         return None
-    data = _data_lines(body)
-    if data.size == 0:
-        return None
-    try:   # numpy's C parser reads the file itself (in chunks: faster than from memory)
+    try:   # numpy's C parser reads the file itself, in chunks
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             # every column: a row with more or fewer values than the first goes to the careful parser
-            table = np.loadtxt(source, delimiter=sep, ndmin=2, dtype=float, comments=None,
-                               skiprows=body_first, encoding="utf-8-sig")
+            table = np.loadtxt(source, delimiter=sep, ndmin=2, dtype=float, comments="#",
+                               skiprows=skip, encoding=encoding)
     except (ValueError, UnicodeDecodeError, IndexError, OSError):
         return None
-    if table.shape != (data.size, ncol) or not np.isfinite(table).all():
+    if table.shape != (idx.size, ncol) or not np.isfinite(table).all():
         return None
-    table = table[:, pick]
-    idx = data + body_first                              # 0-based line of each row (an array: no list of 1M ints)
-    xyz = table[:, :3]
-    fmt = "csv" if sep == "," else "xyz-blocks"
+    if pick != list(range(ncol)):                        # only the columns kept (no copy of x,y,z alone)
+        table = table[:, pick]
+    xyz = table[:, :3]                                   # idx: 0-based line of each row (an array)
+    fmt = "xyz-blocks" if sep is None or headerless else "csv"
+    if headerless:
+        return _point_set(source, fmt, xyz, np.zeros(idx.size, dtype=int), idx, ["1"], structured=False)
     if sep == "," and "section" in col:
         labels = table[:, 3]
         if not np.all(labels == np.floor(labels)) or np.abs(labels).max() >= 2 ** 53:
             return None                                  # text-like labels: kept as written
         section, names_found = _section_labels_of_numbers(labels)
         return _point_set(source, fmt, xyz, section, idx, names_found)
-    block = np.concatenate([[0], np.cumsum(np.diff(data) > 1)]).astype(int)
+    block = np.zeros(idx.size, dtype=int)                # a new block after every gap in the lines
+    block[np.flatnonzero(np.diff(idx) > 1) + 1] = 1
+    np.cumsum(block, out=block)
     if require_sections:
         _require_structure(source, idx, block)
     return _point_set(source, fmt, xyz, block, idx, [str(b + 1) for b in range(block[-1] + 1)],
                       structured=bool(block[-1] > 0))
 
 
-def _data_lines(body: bytes) -> np.ndarray:
-    """0-based numbers of the non-empty lines of ``body`` (empty lines separate sections). A
-    line of only spaces counts here but not for numpy's parser: the row counts then differ and
-    the careful parser reads the file."""
-    newline = np.flatnonzero(np.frombuffer(body, dtype=np.uint8) == 10)
+def _line_blocks(fh) -> Iterator[bytes | None]:
+    """The open file's bytes in blocks of about 4 MB, each ending at a newline (the last at
+    the end of the file); None for a stretch of 16 MB without a newline (not a point file's
+    line: the careful parser says what it is)."""
+    tail = b""
+    while True:
+        chunk = fh.read(_BLOCK_BYTES)
+        if not chunk:
+            if tail:
+                yield tail
+            return
+        buf = tail + chunk
+        cut = buf.rfind(b"\n") + 1
+        if cut == 0 and len(buf) < 4 * _BLOCK_BYTES:
+            tail = buf
+            continue
+        if cut == 0:
+            yield None
+            return
+        tail = buf[cut:]
+        yield buf[:cut]
+
+
+def _scan_lines(source: str) -> tuple[np.ndarray, bytes, str] | None:
+    """One pass over the file in blocks: the 0-based numbers of its data lines (not blank, not
+    ``#``), the first one's bytes and the encoding numpy should read it with; None when the
+    file is not for the vectorised path (quotes, a ``#`` after a value, CR-only line ends,
+    no data line). NUL bytes anywhere are refused here, as in the first megabyte."""
+    found, head, line0, offset, utf8 = [], None, 0, 0, True
+    try:
+        with open(source, "rb") as fh:
+            for k, block in enumerate(_line_blocks(fh)):
+                if block is None:
+                    return None
+                nul = block.find(b"\0")
+                if nul >= 0:
+                    raise BladeReconError(f"{source}: not a text point file: a NUL byte at offset {offset + nul}: "
+                                          "give a CSV, 'x y z' text, PLY or PCD file")
+                offset += len(block)
+                if k == 0 and block.startswith(b"\xef\xbb\xbf"):
+                    block = block[3:]
+                if b"\r" in block:
+                    block = block.replace(b"\r\n", b"\n")
+                    if b"\r" in block:
+                        return None
+                if utf8 and not block.isascii():
+                    try:
+                        block.decode("utf-8")
+                    except UnicodeDecodeError:   # Latin-1 comments: numbers are ASCII either way
+                        utf8 = False
+                lines = _data_lines(block)
+                if lines is None:
+                    return None
+                if lines.size:
+                    if head is None:
+                        starts = np.concatenate([[0], np.flatnonzero(np.frombuffer(block, np.uint8) == 10) + 1])
+                        at = int(starts[lines[0]])
+                        end = block.find(b"\n", at)
+                        head = block[at:] if end < 0 else block[at:end]
+                    found.append(lines + line0)
+                line0 += block.count(b"\n")
+    except OSError as err:
+        raise _open_error(source, err) from None
+    if head is None:
+        return None
+    return np.concatenate(found), head, "utf-8-sig" if utf8 else "latin-1"
+
+
+def _data_lines(body: bytes) -> np.ndarray | None:
+    """0-based numbers of the lines of ``body`` that are neither empty nor ``#`` comments
+    (both separate sections); None when a quote or a ``#`` stands on a line with values. A
+    line of only spaces counts here but not for numpy's parser: the row counts then differ
+    and the careful parser reads the file."""
+    b = np.frombuffer(body, dtype=np.uint8)
+    newline = np.flatnonzero(b == 10)
     starts = np.concatenate([[0], newline + 1])
     ends = np.concatenate([newline, [len(body)]])
-    return np.flatnonzero(ends > starts)
+    keep = ends > starts
+    if b"#" in body or b'"' in body or b"'" in body:
+        marks = np.flatnonzero((b == 35) | (b == 34) | (b == 39))      # '#', '"', "'"
+        marked = np.unique(np.searchsorted(newline, marks))              # lines holding one
+        if marked.size > _MAX_MARKED_LINES:
+            return None
+        for line in marked.tolist():      # a comment: '#' first; a quote only inside a comment
+            if not body[starts[line]:ends[line]].lstrip(b" \t").startswith(b"#"):
+                return None
+        keep[marked] = False
+    return np.flatnonzero(keep)
 
 
 def _section_labels_of_numbers(labels: np.ndarray) -> tuple[np.ndarray, list[str]]:

@@ -26,7 +26,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from bladerecon.core.errors import BladeReconError
@@ -49,49 +48,28 @@ class Slice:
     kind: str                  # "plane" | "cylinder"
 
 
-def read_cloud(path: str, scale: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
-    """Points of an unordered cloud: lines of 3 numbers (x y z) or 4 (id x y z); '#' comments;
-    or a PLY or PCD scan (:mod:`bladerecon.core.io.scanner`).
+def read_cloud(path: str, scale: float = 1.0, memory_limit: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Points of an unordered cloud: any file :func:`~bladerecon.core.io.readers.read_points`
+    reads (a CSV with a header, lines of 3 numbers x y z or 4 id x y z, '#' comments, a PLY or
+    PCD scan), or rows x,y,z / id,x,y,z with commas and no header; read a block at a time.
 
     ``scale`` multiplies the coordinates (1000 for a file in metres). Returns ``(points (N, 3)
     mm, line numbers (N,))``.
     """
-    from bladerecon.core.io.scanner import read_scan, sniff
+    from bladerecon.core.io.readers import read_headerless_cloud, read_points
 
     try:
-        with open(path, "rb") as fh:
-            head = fh.read(1 << 16)
-        if sniff(head):                               # a PLY or PCD scan
-            with open(path, "rb") as fh:
-                scan = read_scan(path, fh.read())
-            if len(scan.points) < MIN_SLICE_POINTS:
-                raise BladeReconError(f"{path}: {len(scan.points)} points; a cloud to slice needs many more")
-            return scan.points * scale, scan.index
-    except OSError as exc:
-        raise BladeReconError(f"{path}: cannot read the cloud ({exc.strerror})") from None
-    pts, lines = [], []
-    try:
-        with open(path, encoding="utf-8") as fh:
-            for no, text in enumerate(fh, 1):
-                s = text.strip()
-                if not s or s.startswith("#"):
-                    continue
-                cells = s.replace(",", " ").replace(";", " ").split()
-                if len(cells) not in (3, 4):
-                    raise BladeReconError(f"{path}, line {no}: expected 'x y z' or 'id x y z', got {len(cells)} values")
-                try:
-                    pts.append([float(c) for c in cells[-3:]])
-                except ValueError:
-                    raise BladeReconError(f"{path}, line {no}: '{s[:60]}' is not a line of numbers") from None
-                lines.append(no)
-    except OSError as exc:
-        raise BladeReconError(f"{path}: cannot read the cloud ({exc.strerror})") from None
-    if len(pts) < MIN_SLICE_POINTS:
-        raise BladeReconError(f"{path}: {len(pts)} points; a cloud to slice needs many more")
-    P = np.asarray(pts, float) * scale
+        ps = read_points(path, require_sections=False, memory_limit=memory_limit)   # read in blocks
+    except BladeReconError as err:
+        if "without a header row" not in str(err):
+            raise
+        ps = read_headerless_cloud(path, memory_limit)        # x,y,z rows as scanners write them
+    if len(ps.points) < MIN_SLICE_POINTS:
+        raise BladeReconError(f"{path}: {len(ps.points)} points; a cloud to slice needs many more")
+    P = np.asarray(ps.points, float) * scale
     if not np.all(np.isfinite(P)):
         raise BladeReconError(f"{path}: the cloud holds NaN or infinite coordinates")
-    return P, np.asarray(lines)
+    return P, np.asarray(ps.line)
 
 
 def plane_positions(points: np.ndarray, axis: np.ndarray, n: int, margin: float = 0.05) -> np.ndarray:
@@ -120,12 +98,59 @@ def _groups(points: np.ndarray, link: float, extent_share: float = 0.08) -> tupl
     d, _ = tree.query(points, 2)
     size = float(np.linalg.norm(np.ptp(points, axis=0)))
     r = max(link * float(np.median(d[:, 1])), extent_share * size)
-    pairs = tree.query_pairs(r, output_type="ndarray")
-    import scipy.sparse as sp
-    n = points.shape[0]
-    g = sp.coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n)) if len(pairs) else sp.coo_matrix((n, n))
-    _, labels = connected_components(g, directed=False)
+    del tree, d
+    labels = _components_within(points, r)
     return labels, np.bincount(labels)
+
+
+def _components_within(points: np.ndarray, r: float) -> np.ndarray:
+    """Connected components (a label per point) of the graph joining points closer than ``r``,
+    without listing the pairs: with ``r`` a share of the slab, every point has a share of the
+    slab as neighbours and the pairs grow with the square of the points (5.5 GB for a slab of
+    130 000 points). Points in one cube of side r/sqrt(3) are all within ``r`` of each other:
+    a cube is one node; two cubes at most two apart along every axis are joined when their
+    nearest points are within ``r`` (a k-d tree query of one cube's points against the other's).
+    The same components as the pairs give; memory linear in the points."""
+    n = points.shape[0]
+    if n == 0:
+        return np.zeros(0, dtype=int)
+    if not r > 0:
+        return np.arange(n)
+    h = r / np.sqrt(3.0) * (1.0 - 1e-9)
+    keys = np.floor((points - points.min(axis=0)) / h).astype(np.int64)
+    cubes, cube = np.unique(keys, axis=0, return_inverse=True)
+    cube = cube.ravel()
+    order = np.argsort(cube, kind="stable")
+    bounds = np.searchsorted(cube[order], np.arange(len(cubes) + 1))
+    members = [order[bounds[c]:bounds[c + 1]] for c in range(len(cubes))]
+    index = {tuple(k): c for c, k in enumerate(cubes.tolist())}
+    parent = list(range(len(cubes)))
+
+    def root(c: int) -> int:
+        while parent[c] != c:
+            parent[c] = parent[parent[c]]
+            c = parent[c]
+        return c
+
+    trees: dict[int, cKDTree] = {}
+    offsets = [(i, j, k) for i in range(-2, 3) for j in range(-2, 3) for k in range(-2, 3) if (i, j, k) > (0, 0, 0)]
+    for c, key in enumerate(cubes.tolist()):
+        for off in offsets:
+            other = index.get((key[0] + off[0], key[1] + off[1], key[2] + off[2]))
+            if other is None:
+                continue
+            a, b = root(c), root(other)
+            if a == b:
+                continue
+            small, big = (c, other) if len(members[c]) <= len(members[other]) else (other, c)
+            if big not in trees:
+                trees[big] = cKDTree(points[members[big]])
+            dist, _ = trees[big].query(points[members[small]], k=1, distance_upper_bound=np.nextafter(r, np.inf))
+            if np.any(dist <= r):                 # as query_pairs: at most r
+                parent[a] = b
+    roots = np.array([root(c) for c in range(len(cubes))])
+    _, compact = np.unique(roots, return_inverse=True)
+    return compact.ravel()[cube]
 
 
 def _clean(points: np.ndarray, rows: np.ndarray, where: str, link: float, two_blade_share: float) -> tuple:
