@@ -138,7 +138,7 @@ def test_rotor67_cloud_against_the_nasa_section_table():
 
 
 def test_a_thick_slab_is_moved_onto_the_cut_along_the_surface():
-    """The default slab of six slices (a quarter of the gap: 4.5 mm) of a noisy random cloud.
+    """A 4.5 mm slab (a quarter of the gap between six slices) of a noisy random cloud.
     Moved straight along the axis, a point ``offset`` above the cut lands ``offset x slope``
     off its section (the sample blade's walls lean up to ~0.15 mm/mm: rms over a uniform
     +-2.25 mm offset ~0.09 mm, measured 0.09-0.11 mm, max 0.4 mm). Slid along its tangent plane
@@ -149,7 +149,7 @@ def test_a_thick_slab_is_moved_onto_the_cut_along_the_surface():
     rng = np.random.default_rng(4)
     cloud = _cloud(200_000, seed=4) + 0.002 * rng.standard_normal((200_000, 3))
     z = np.linspace(5.0, 95.0, 6)
-    for zk, s in zip(z[1:-1], slice_planes(cloud, z)[1:-1]):
+    for zk, s in zip(z[1:-1], slice_planes(cloud, z, slab=4.5)[1:-1]):
         true = cKDTree(_true_section(zk / 100.0, 50000))
         moved = true.query(s.points)[0]
         straight = true.query(cloud[s.index] - np.outer(cloud[s.index, 2] - zk, [0.0, 0.0, 1.0]))[0]
@@ -157,3 +157,17 @@ def test_a_thick_slab_is_moved_onto_the_cut_along_the_surface():
         assert rms(straight) > 0.06, rms(straight)
         assert rms(moved) < 0.015 and np.percentile(moved, 99) < 0.04 and moved.max() < 0.2, \
             (rms(moved), np.percentile(moved, 99), moved.max())
+
+
+def test_the_default_slab_of_a_dense_cloud_holds_a_few_thousand_points():
+    """A quarter of the gap on a sparse cloud; on a dense one, narrowed so that a slab holds
+    about SLAB_POINTS points (each point moved onto the cut adds error in proportion to its
+    offset: nothing is gained by more points in a thicker slab)."""
+    from bladerecon.core.sections.slicing import SLAB_POINTS
+
+    z = np.linspace(5.0, 95.0, 6)
+    sparse = slice_planes(_cloud(20_000, seed=5), z)
+    assert all(abs(s.slab - 4.5) < 1e-9 for s in sparse)
+    dense = slice_planes(_cloud(400_000, seed=6), z)
+    counts = [len(s.points) for s in dense]
+    assert dense[0].slab < 1.0 and 0.7 * SLAB_POINTS < np.median(counts) < 1.3 * SLAB_POINTS, (dense[0].slab, counts)

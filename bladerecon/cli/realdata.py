@@ -137,8 +137,7 @@ def read_input(args: argparse.Namespace):
                "positions_mm": [s.position for s in slices], "points": [int(len(s.points)) for s in slices],
                "outliers": [[k, int(lines[i])] for k, s in enumerate(slices) for i in s.outliers],
                "projected_onto_cut": not args.slab_keep,
-               "slab_mm": args.slab if args.slab is not None else slicing._default_slab(
-                   [s.position for s in slices])}
+               "slab_mm": float(slices[0].slab) if slices else args.slab}
     return ps, summary
 
 

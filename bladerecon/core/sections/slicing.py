@@ -36,6 +36,8 @@ __all__ = ["Slice", "read_cloud", "plane_positions", "slice_planes", "slice_cyli
            "MIN_SLICE_POINTS"]
 
 MIN_SLICE_POINTS = 12
+#: a default slab holds about this many points (fewer when the cloud is sparse)
+SLAB_POINTS = 3000
 
 
 @dataclass(frozen=True)
@@ -47,6 +49,7 @@ class Slice:
     index: np.ndarray          # (n,) row of each kept point in the cloud
     outliers: np.ndarray       # rows in the cloud of the points removed as outliers
     kind: str                  # "plane" | "cylinder"
+    slab: float = 0.0          # width of the slab the points came from (mm)
 
 
 def read_cloud(path: str, scale: float = 1.0, memory_limit: float | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -82,9 +85,18 @@ def plane_positions(points: np.ndarray, axis: np.ndarray, n: int, margin: float 
     return np.linspace(lo + margin * (hi - lo), hi - margin * (hi - lo), n)
 
 
-def _default_slab(positions: np.ndarray) -> float:
+def _default_slab(positions: np.ndarray, heights: np.ndarray | None = None) -> float:
+    """A quarter of the smallest gap between the cuts; with the points' ``heights`` along the
+    axis (or radii), no wider than holds about :data:`SLAB_POINTS` points: a thick slab of a
+    dense scan only adds the error of moving its points onto the cut."""
     p = np.sort(np.asarray(positions, float))
-    return 0.25 * float(np.diff(p).min()) if p.size > 1 else 1.0
+    slab = 0.25 * float(np.diff(p).min()) if p.size > 1 else 1.0
+    if heights is not None and len(heights) and p.size:
+        near = [np.count_nonzero(np.abs(heights - z) <= 0.5 * slab) for z in p]
+        dense = int(np.median(near))
+        if dense > SLAB_POINTS:
+            slab *= SLAB_POINTS / dense
+    return slab
 
 
 def _groups(points: np.ndarray, link: float, extent_share: float = 0.08) -> tuple[np.ndarray, np.ndarray]:
@@ -167,7 +179,7 @@ def _clean(points: np.ndarray, rows: np.ndarray, where: str, link: float, two_bl
 
 
 def _finish(kind: str, pos: float, P: np.ndarray, rows: np.ndarray, where: str, link: float,
-            two_blade_share: float, min_points: int) -> Slice:
+            two_blade_share: float, min_points: int, slab: float = 0.0) -> Slice:
     if P.shape[0] < min_points:
         raise BladeReconError(f"{where}: {P.shape[0]} points in the slab, a section needs at least {min_points}: "
                               "widen --slab or move the slice")
@@ -175,26 +187,27 @@ def _finish(kind: str, pos: float, P: np.ndarray, rows: np.ndarray, where: str, 
     if P.shape[0] < min_points:
         raise BladeReconError(f"{where}: {P.shape[0]} points left after removing outliers, needs at least "
                               f"{min_points}: widen --slab")
-    return Slice(float(pos), P, kept, out, kind)
+    return Slice(float(pos), P, kept, out, kind, slab)
 
 
 def slice_planes(points: np.ndarray, positions, axis=(0.0, 0.0, 1.0), slab: float | None = None,
                  project: bool = True, link: float = 6.0, two_blade_share: float = 0.2,
                  min_points: int = MIN_SLICE_POINTS) -> list[Slice]:
-    """Slabs of width ``slab`` (mm; default a quarter of the smallest gap) around planes
+    """Slabs of width ``slab`` (mm; default a quarter of the smallest gap, narrower on a dense
+    cloud: :func:`_default_slab`) around planes
     normal to ``axis`` at heights ``positions`` (mm), points moved onto the planes."""
     a = np.asarray(axis, float) / np.linalg.norm(axis)
     pos = np.asarray(positions, float)
-    slab = _default_slab(pos) if slab is None else float(slab)
-    if not slab > 0:
-        raise BladeReconError(f"--slab must be a positive width in mm, got {slab}")
     P = np.asarray(points, float)
     h = P @ a
+    slab = _default_slab(pos, h) if slab is None else float(slab)
+    if not slab > 0:
+        raise BladeReconError(f"--slab must be a positive width in mm, got {slab}")
     out = []
     for z in pos:
         m = np.flatnonzero(np.abs(h - z) <= 0.5 * slab)
         Q = _onto_plane(P[m], h[m] - z, a) if project else P[m]
-        out.append(_finish("plane", z, Q, m, f"slice at {z:.4f} mm", link, two_blade_share, min_points))
+        out.append(_finish("plane", z, Q, m, f"slice at {z:.4f} mm", link, two_blade_share, min_points, slab))
     return out
 
 
@@ -255,20 +268,20 @@ def slice_cylinders(points: np.ndarray, radii, axis=(0.0, 0.0, 1.0), centre=(0.0
     rad = np.asarray(radii, float)
     if np.any(rad <= 0):
         raise BladeReconError("--slice-radii must be positive radii in mm")
-    slab = _default_slab(rad) if slab is None else float(slab)
-    if not slab > 0:
-        raise BladeReconError(f"--slab must be a positive width in mm, got {slab}")
     P = np.asarray(points, float)
     d = P - c
     along = d @ a
     radial = d - np.outer(along, a)
     r = np.linalg.norm(radial, axis=1)
+    slab = _default_slab(rad, r) if slab is None else float(slab)
+    if not slab > 0:
+        raise BladeReconError(f"--slab must be a positive width in mm, got {slab}")
     out = []
     for rk in rad:
         m = np.flatnonzero(np.abs(r - rk) <= 0.5 * slab)
         Q = c + np.outer(along[m], a) + radial[m] * (rk / r[m])[:, None] if project else P[m]
         out.append(_finish("cylinder", rk, Q, m, f"cylinder slice at r = {rk:.4f} mm", link,
-                           two_blade_share, min_points))
+                           two_blade_share, min_points, slab))
     return out
 
 
