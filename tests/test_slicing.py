@@ -171,3 +171,30 @@ def test_the_default_slab_of_a_dense_cloud_holds_a_few_thousand_points():
     dense = slice_planes(_cloud(400_000, seed=6), z)
     counts = [len(s.points) for s in dense]
     assert dense[0].slab < 1.0 and 0.7 * SLAB_POINTS < np.median(counts) < 1.3 * SLAB_POINTS, (dense[0].slab, counts)
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_a_sliced_50000_point_scan_reconstructs_within_its_error(tmp_path, seed):
+    """``reconstruct CLOUD --slice 6`` as a user runs it, on 50 000 random points of the sample
+    blade with 2 µm noise, against the nominal. The section fits used to split knot spans down
+    to halves with no point, held only by the fairness term: 1500 poles on ~1500 points, the
+    curves waving between them, 5.9-31 mm from the nominal (seeds 0-2). A span is now split
+    only when both halves keep two points: 0.28-0.43 mm max, 0.05-0.07 mm rms (the slid points
+    are 7 µm rms off; the rest is the smoothing following their slowly varying error, see
+    docs/limitations.md)."""
+    import json
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    rng = np.random.default_rng(seed)
+    P = BLADE.point(rng.random(50_000), rng.random(50_000)) + 0.002 * rng.standard_normal((50_000, 3))
+    f = tmp_path / "scan.csv"
+    f.write_text("x,y,z\n" + "".join(f"{x!r},{y!r},{z!r}\n" for x, y, z in P.tolist()))
+    root = Path(__file__).resolve().parents[1]
+    r = subprocess.run([sys.executable, "-m", "bladerecon", "reconstruct", str(f), "--slice", "6", "--nominal",
+                        str(root / "resources" / "sample" / "nominal.step"), "--json", "--quiet"],
+                       capture_output=True, text=True, timeout=300, cwd=root)
+    assert r.returncode == 0, r.stderr
+    shape = json.loads(r.stdout)["nominal"]
+    assert shape["max"] < 0.6 and shape["rms"] < 0.08, shape
