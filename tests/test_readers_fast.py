@@ -47,7 +47,7 @@ def tables(draw):
     fmt = lambda v: repr(float(v)) if digits == 17 else f"{v:.{digits}g}"   # noqa: E731
     kind = draw(st.sampled_from(["csv", "csv-section", "xyz", "id-xyz"]))
     newline = draw(st.sampled_from(["\n", "\r\n"]))
-    lead = draw(st.sampled_from(["", "\n", "\n\n"]))
+    lead = draw(st.sampled_from(["", "\n", "\n\n", "  \n", "\t\n"]))      # blank lines, of spaces too
     if kind.startswith("csv"):
         cols = draw(st.permutations(["x", "y", "z"] + (["section"] if kind == "csv-section" else [])
                                     + (["i"] if draw(st.booleans()) else [])))
@@ -87,10 +87,10 @@ def block_bytes(request, monkeypatch):
 
 
 @SETTINGS
-@given(text=tables(), require=st.booleans(), encoding=st.sampled_from(["utf-8", "latin-1"]))
-def test_fast_and_careful_paths_agree(tmp_path, block_bytes, text, require, encoding):
+@given(text=tables(), require=st.booleans(), encoding=st.sampled_from(["utf-8", "latin-1"]), bom=st.booleans())
+def test_fast_and_careful_paths_agree(tmp_path, block_bytes, text, require, encoding, bom):
     path = tmp_path / "p.txt"
-    path.write_bytes(text.encode(encoding))
+    path.write_bytes((b"\xef\xbb\xbf" if bom else b"") + text.encode(encoding))
     try:
         expected = careful(path, require)
     except BladeReconError as err:

@@ -16,6 +16,7 @@ reader's own accounting:
 from __future__ import annotations
 
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -193,5 +194,82 @@ def test_a_cloud_of_comma_rows_without_a_header_is_read_in_blocks(tmp_path, monk
     bad = rows[:]
     bad[1700] = bad[1700].replace(",", ",x", 1)
     plain.write_text("\n".join(bad) + "\n")
-    with pytest.raises(BladeReconError, match=r"a\.csv, line 1701: '.*' is not a line of numbers"):
+    with pytest.raises(BladeReconError, match=r"a\.csv, line 1701: '.*' is not a line of finite numbers"):
         read_cloud(str(plain))
+
+
+# --------------------------------------------------------------------------- what the sweep found
+def test_a_nul_byte_anywhere_is_refused_by_either_parser(tmp_path):
+    """A NUL past the first megabyte in a file the careful parser reads (a quoted header) is
+    refused at its offset, as in a plain table: the answer does not depend on the parser."""
+    rows = "".join(f"{k}.5,{k % 7}.25,{k % 11}.125\n" for k in range(100_000)).encode()
+    for header in (b"x,y,z\n", b'"x","y","z"\n'):
+        path = tmp_path / "late.csv"
+        body = header + rows
+        path.write_bytes(body + b"# \0 late\n")
+        with pytest.raises(BladeReconError, match=f"NUL byte at offset {len(body) + 2}:"):
+            readers.read_points(path, require_sections=False)
+
+
+def test_one_endless_line_is_refused_quickly(tmp_path):
+    """100 MB without a newline: refused in one line before it is split (it took 12 s and
+    2.2 GB, over any --memory-limit)."""
+    path = tmp_path / "one.txt"
+    path.write_text("1.000000 2.000000 3.000000 " * 3_800_000)
+    rc, peak, err = peak_memory(PY + ["sections", str(path), "--memory-limit", "0.5"], env=ENV, timeout=60)
+    errors = [ln for ln in err.splitlines() if ln.startswith("bladerecon: error:")]
+    assert rc == 2 and len(errors) == 1 and "line 1: 102.6 MB in one line" in errors[0], err
+    assert peak < 250e6, peak / 1e6
+
+
+@pytest.mark.parametrize("row, words", [
+    ("1.0,,2.0,3.0", "4 values where line 1 has 3"),
+    ("1.0,2.0,3.0,", "4 values where line 1 has 3"),
+    ("7,1.0,2.0,3.0", "4 values where line 1 has 3"),
+    ("nan,2.0,3.0", "not a line of finite numbers"),
+    ("1e400,2,3", "not a line of finite numbers"),
+    ("1.0,abc,3.0", "not a line of finite numbers"),
+])
+def test_a_bad_row_of_a_headerless_cloud_is_named(tmp_path, row, words):
+    """An empty cell is not skipped (the values would shift into the wrong columns), a row of
+    another width is not mixed in, NaN and overflow name their line."""
+    from bladerecon.core.sections.slicing import read_cloud
+
+    rng = np.random.default_rng(3)
+    rows = [f"{x!r},{y!r},{z!r}" for x, y, z in rng.normal(0, 10, (2000, 3)).tolist()]
+    rows[1233] = row
+    path = tmp_path / "cloud.csv"
+    path.write_text("\n".join(rows) + "\n")
+    with pytest.raises(BladeReconError, match=f"cloud.csv, line 1234: .*{re.escape(words)}"):
+        read_cloud(str(path))
+
+
+def test_blank_first_lines_of_spaces_are_read(tmp_path):
+    """A line of spaces or a tab before the header or the first row (the fast path took it for
+    the header and refused the file)."""
+    from bladerecon.core.sections.slicing import read_cloud
+
+    src = (ROOT / "resources" / "sample" / "measured.csv").read_text()
+    path = tmp_path / "m.csv"
+    path.write_text("\t\n" + src)
+    assert readers.read_points(path).n_sections == 6
+    rows = "".join(f"{k}.5,{k % 7}.25,{k % 11}.125\n" for k in range(100))
+    path.write_text("   \n" + rows)
+    P, lines = read_cloud(str(path))
+    assert len(P) == 100 and lines[0] == 2
+
+
+def test_batch_refuses_a_fifo_before_hashing_it(tmp_path):
+    """A manifest row naming a FIFO: the blade fails in one line (the worker blocked for good
+    opening it to hash its bytes)."""
+    import json
+
+    fifo = tmp_path / "scan.csv"
+    os.mkfifo(fifo)
+    manifest = tmp_path / "lot.csv"
+    manifest.write_text(f"blade,file\nb1,{fifo}\n")
+    r = subprocess.run(PY + ["batch", str(manifest), "--nominal", NOMINAL, "-o", str(tmp_path / "out")],
+                       capture_output=True, text=True, env=ENV, timeout=120)
+    assert r.returncode == 2 and "Traceback" not in r.stderr
+    lot = json.loads((tmp_path / "out" / "lot" / "lot.json").read_text())
+    assert "is a FIFO" in lot["blades"][0]["error"] and fifo.is_fifo()

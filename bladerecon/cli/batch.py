@@ -160,6 +160,8 @@ def _blade_memory_limit(args) -> float | None:
 def _run_blade(job: dict) -> dict:
     from bladerecon.cli import deviation
 
+    check_input(job["file"], "MEASURED")     # before hashing: a FIFO would block the worker for good
+    check_input(job["nominal"], "--nominal")
     inputs = _inputs(job)
     if job["resume"]:
         summary = _stored(job["out"], inputs)

@@ -147,4 +147,4 @@ def check_budget(what: str, need: float, limit_gb: float | None, advice: str) ->
 
 
 def _amount(n_bytes: float) -> str:
-    return f"{n_bytes / GB:.2f} GB" if n_bytes >= 0.1 * GB else f"{n_bytes / 1e6:.0f} MB"
+    return f"{n_bytes / GB:.2f} GB" if n_bytes >= 0.1 * GB else f"{n_bytes / 1e6:.3g} MB"

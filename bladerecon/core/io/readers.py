@@ -46,7 +46,8 @@ from bladerecon.core.io.memory import READ_BASE, SCAN_BYTES_PER_BYTE, careful_re
 from bladerecon.core.io.outputs import shown
 from bladerecon.core.io.scanner import read_scan, sniff
 
-__all__ = ["PointSet", "points_upper_bound", "read_headerless_cloud", "read_points", "write_points_csv"]
+__all__ = ["PointSet", "headerless_rows", "points_upper_bound", "read_headerless_cloud", "read_points",
+           "write_points_csv"]
 
 _NO_STRUCTURE = (
     "points have no section structure: add a 'section' column to the CSV or separate "
@@ -56,6 +57,7 @@ _NO_STRUCTURE = (
 _TEXT_CHECK_BYTES = 1 << 20      # NUL bytes in the first megabyte: not a text file
 _BLOCK_BYTES = 4 << 20           # plain tables are scanned this much at a time
 _MAX_MARKED_LINES = 100_000      # more '#' lines than this in a block: the careful parser
+_MAX_LINE_BYTES = 1 << 20        # a point's line is a few numbers: a longer line is refused
 _UNIT_SUFFIX = re.compile(r"[\s_]*[\[(]?\s*mm\s*[\])]?$")
 
 
@@ -149,7 +151,7 @@ def _read_points(source: str, require_sections: bool, memory_limit: float | None
     if fast is not None:
         return fast
     # the careful parser holds the file's lines and cells as Python strings
-    check_budget(f"reading {source}", careful_read_need(_count_lines(source), _size(source)), memory_limit,
+    _careful_budget(source, memory_limit,
                  "write it as a plain CSV (header x,y,z[,section], numeric section labels, no quotes or comments "
                  "after values), which is read in blocks, "
                  "or raise --memory-limit")
@@ -281,17 +283,50 @@ def points_upper_bound(path: str | os.PathLike) -> int:
     return _count_lines(source)
 
 
-def _count_lines(source: str) -> int:
-    """The file's line count, read a block at a time (for the memory budget)."""
-    n, last = 0, b"\n"
+def _line_stats(source: str) -> tuple[int, int, int]:
+    """One pass over the file a block at a time: its line count, its longest line (bytes) and
+    that line's number (for the memory budget and the long-line check). A NUL byte anywhere is
+    refused here, at its offset."""
+    n, run, longest, longest_at, offset = 0, 0, 0, 1, 0
     try:
         with open(source, "rb") as fh:
             for block in iter(lambda: fh.read(_BLOCK_BYTES), b""):
-                n += block.count(b"\n") or block.count(b"\r")
-                last = block[-1:]
+                nul = block.find(b"\0")
+                if nul >= 0:
+                    raise _nul_error(source, offset + nul)
+                offset += len(block)
+                end = 10 if b"\n" in block or b"\r" not in block else 13      # CR-only line ends
+                ends = np.flatnonzero(np.frombuffer(block, np.uint8) == end)
+                if ends.size:
+                    lengths = np.diff(np.concatenate([[-1], ends])) - 1
+                    lengths[0] += run
+                    k = int(np.argmax(lengths))
+                    if lengths[k] > longest:
+                        longest, longest_at = int(lengths[k]), n + k + 1
+                    run = len(block) - int(ends[-1]) - 1
+                    n += ends.size
+                else:
+                    run += len(block)
+                if run > longest:
+                    longest, longest_at = run, n + 1
     except OSError as err:
         raise _open_error(source, err) from None
-    return n + (last not in (b"\n", b"\r"))
+    return n + (run > 0), longest, longest_at
+
+
+def _count_lines(source: str) -> int:
+    return _line_stats(source)[0]
+
+
+def _careful_budget(source: str, memory_limit: float | None, advice: str) -> None:
+    """Before the careful parser reads a file whole: no line longer than a point's line can be
+    (a file of one endless line holds no points, and splitting it took 2 GB), and the need of
+    its lines and bytes within the budget."""
+    n_lines, longest, at = _line_stats(source)
+    if longest > _MAX_LINE_BYTES:
+        raise BladeReconError(f"{source}, line {at}: {longest / 1e6:.1f} MB in one line: a point is one line of a "
+                              "few numbers; give a point file with one point per line")
+    check_budget(f"reading {source}", careful_read_need(n_lines, _size(source)), memory_limit, advice)
 
 
 def _size(source: str) -> int:
@@ -316,17 +351,24 @@ def _read_bytes(source: str, text: bool = True) -> bytes:
 
 
 def _check_text(source: str, raw: bytes) -> None:
-    nul = raw.find(b"\0", 0, _TEXT_CHECK_BYTES)
+    """NUL bytes anywhere in ``raw`` (the first megabyte, or the whole file): not a text file."""
+    nul = raw.find(b"\0")
     if nul >= 0:
-        utf16 = " (UTF-16 text? save it as UTF-8)" if raw[:2] in (b"\xff\xfe", b"\xfe\xff") else ""
-        raise BladeReconError(f"{source}: not a text point file: a NUL byte at offset {nul}{utf16}: give a CSV, "
-                              "'x y z' text, PLY or PCD file")
+        raise _nul_error(source, nul, raw[:2] in (b"\xff\xfe", b"\xfe\xff"))
+
+
+def _nul_error(source: str, offset: int, utf16: bool = False) -> BladeReconError:
+    hint = " (UTF-16 text? save it as UTF-8)" if utf16 else ""
+    return BladeReconError(f"{source}: not a text point file: a NUL byte at offset {offset}{hint}: give a CSV, "
+                           "'x y z' text, PLY or PCD file")
 
 
 def _split_lines(raw: bytes) -> list[str]:
     """File text split into lines (1-based line k is ``lines[k-1]``), newline style agnostic."""
+    if raw.startswith(b"\xef\xbb\xbf"):       # a BOM, whatever the comments' encoding
+        raw = raw[3:]
     try:
-        text = raw.decode("utf-8-sig")
+        text = raw.decode("utf-8")
     except UnicodeDecodeError:
         text = raw.decode("latin-1")
     return text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
@@ -416,29 +458,54 @@ def read_headerless_cloud(path: str | os.PathLike, memory_limit: float | None = 
     fast = _read_fast(source, False, headerless=True)
     if fast is not None:
         return fast
-    check_budget(f"reading {source}", careful_read_need(_count_lines(source), _size(source)), memory_limit,
-                 "give it a header x,y,z (then it is read in blocks), or raise --memory-limit")
-    pts, lines = [], []
-    with open(source, encoding="utf-8-sig", errors="replace") as fh:
-        for no, text in enumerate(fh, 1):
-            cells = text.strip()
-            if not cells or cells.startswith("#"):
+    _careful_budget(source, memory_limit, "give it a header x,y,z (then it is read in blocks), or raise --memory-limit")
+    pts, lines, width, first = [], [], None, 0
+    with open(source, "rb") as fh:
+        for no, raw in enumerate(fh, 1):
+            text = raw.decode("utf-8", errors="replace").lstrip("\ufeff").strip()
+            if not text or text.startswith("#"):
                 continue
-            values = cells.replace(",", " ").replace(";", " ").split()
-            if len(values) not in (3, 4):
-                raise BladeReconError(f"{source}, line {no}: expected 'x,y,z' or 'id,x,y,z', got {len(values)} values")
+            cells = [c.strip() for c in re.split(r"[,;]", text)] if ("," in text or ";" in text) else text.split()
+            if width is None:
+                width, first = len(cells), no
+                if width not in (3, 4):
+                    raise BladeReconError(f"{source}, line {no}: expected 'x,y,z' or 'id,x,y,z', got {width} values: "
+                                          "give one point per line")
+            elif len(cells) != width:
+                raise BladeReconError(f"{source}, line {no}: {len(cells)} values where line {first} has {width}: "
+                                      "give every point the same columns")
             try:
-                pts.append([float(c) for c in values[-3:]])
+                xyz = [float(c) for c in cells[-3:]]
+                if not all(np.isfinite(xyz)):
+                    raise ValueError
             except ValueError:
-                raise BladeReconError(f"{source}, line {no}: '{shown(cells, 60)}' is not a line of numbers") from None
+                raise BladeReconError(f"{source}, line {no}: '{shown(text, 60)}' is not a line of finite numbers "
+                                      "(an empty cell, a decimal comma, text?): correct or remove the line") from None
+            pts.append(xyz)
             lines.append(no - 1)
     if not pts:
         raise BladeReconError(f"{source}: no points in the file: give one point per line")
-    P = np.asarray(pts, float)
-    if not np.all(np.isfinite(P)):
-        raise BladeReconError(f"{source}: the cloud holds NaN or infinite coordinates")
-    return _point_set(source, "xyz-blocks", P, np.zeros(len(P), dtype=int), np.asarray(lines), ["1"],
-                      structured=False)
+    return _point_set(source, "xyz-blocks", np.asarray(pts, float), np.zeros(len(pts), dtype=int),
+                      np.asarray(lines), ["1"], structured=False)
+
+
+def headerless_rows(path: str | os.PathLike) -> bool:
+    """Whether the file's first line that is not blank or ``#`` is a row of 3 or 4 numbers
+    separated by commas or semicolons (a cloud for :func:`read_headerless_cloud`). Reads the
+    first megabyte only."""
+    source = str(path)
+    head = _read_head(source)
+    if sniff(head):
+        return False
+    for line in head.split(b"\n")[:10_000]:
+        text = line.decode("latin-1").lstrip("\ufeff\xef\xbb\xbf").strip()
+        if not text or text.startswith("#"):
+            continue
+        if "," not in text and ";" not in text:
+            return False
+        cells = re.split(r"[,;]", text)
+        return len(cells) in (3, 4) and all(_is_number(c.strip()) for c in cells)
+    return False
 
 
 def _read_fast(source: str, require_sections: bool, headerless: bool = False) -> PointSet | None:
@@ -454,6 +521,8 @@ def _read_fast(source: str, require_sections: bool, headerless: bool = False) ->
     try:
         head_text = head.decode("ascii").strip()
     except UnicodeDecodeError:
+        return None
+    if not head_text:             # a line of spaces: numpy skips it, the careful parser reads the file
         return None
     tokens = re.split(r"[,;\s]+", head_text)
     n_numeric = sum(_is_number(t) for t in tokens)
@@ -539,8 +608,7 @@ def _scan_lines(source: str) -> tuple[np.ndarray, bytes, str] | None:
                     return None
                 nul = block.find(b"\0")
                 if nul >= 0:
-                    raise BladeReconError(f"{source}: not a text point file: a NUL byte at offset {offset + nul}: "
-                                          "give a CSV, 'x y z' text, PLY or PCD file")
+                    raise _nul_error(source, offset + nul)
                 offset += len(block)
                 if k == 0 and block.startswith(b"\xef\xbb\xbf"):
                     block = block[3:]

@@ -27,6 +27,8 @@ import warnings
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from bladerecon.core.errors import BladeReconError
@@ -60,14 +62,12 @@ def read_cloud(path: str, scale: float = 1.0, memory_limit: float | None = None)
     ``scale`` multiplies the coordinates (1000 for a file in metres). Returns ``(points (N, 3)
     mm, line numbers (N,))``.
     """
-    from bladerecon.core.io.readers import read_headerless_cloud, read_points
+    from bladerecon.core.io.readers import headerless_rows, read_headerless_cloud, read_points
 
-    try:
+    if headerless_rows(path):                                 # x,y,z rows as scanners write them
+        ps = read_headerless_cloud(path, memory_limit)
+    else:
         ps = read_points(path, require_sections=False, memory_limit=memory_limit)   # read in blocks
-    except BladeReconError as err:
-        if "without a header row" not in str(err):
-            raise
-        ps = read_headerless_cloud(path, memory_limit)        # x,y,z rows as scanners write them
     if len(ps.points) < MIN_SLICE_POINTS:
         raise BladeReconError(f"{path}: {len(ps.points)} points; a cloud to slice needs many more")
     P = np.asarray(ps.points, float) * scale
@@ -130,7 +130,12 @@ def _components_within(points: np.ndarray, r: float) -> np.ndarray:
     if not r > 0:
         return np.arange(n)
     h = r / np.sqrt(3.0) * (1.0 - 1e-9)
-    keys = np.floor((points - points.min(axis=0)) / h).astype(np.int64)
+    cells = (points - points.min(axis=0)) / h
+    if not np.all(cells < 2.0 ** 40):          # r far below the cloud's size: few pairs, list them
+        pairs = cKDTree(points).query_pairs(r, output_type="ndarray")
+        g = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+        return connected_components(g, directed=False)[1]
+    keys = np.floor(cells).astype(np.int64)
     cubes, cube = np.unique(keys, axis=0, return_inverse=True)
     cube = cube.ravel()
     order = np.argsort(cube, kind="stable")
