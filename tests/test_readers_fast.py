@@ -145,3 +145,19 @@ def test_a_big_table_takes_the_fast_path(tmp_path, monkeypatch):
     assert ps.section_names == ("1",) and ps.line[0] == 2 and ps.line[-1] == 100_001
     with pytest.raises(BladeReconError, match="no section structure"):
         readers.read_points(path)
+
+
+@pytest.mark.parametrize("text", [
+    "# exported by a CMM\n# operator's \"note\"\nsection,x,y,z\n1,0.5,1.5,2.5\n1,1.5,2.5,3.5\n# section 2\n2,0.5,1.5,5.5\n2,1.5,2.5,6.5\n",
+    "# blade 7\n0.5 1.5 2.5\n1.5 2.5 3.5\n2.5 3.5 4.5\n# next\n0.5 1.5 5.5\n1.5 2.5 6.5\n2.5 3.5 7.5\n",
+    "\ufeff# mesur\u00e9 en \u00b5m\nx,y,z\n1,2,3\n4,5,6\n\n7,8,9\n",
+])
+def test_comment_lines_take_the_fast_path(tmp_path, monkeypatch, text):
+    """'#' lines (with quotes or accents in them) are taken by the vectorised path, not handed
+    to the careful parser, and give its PointSet: the agreement tests above pass as well when
+    the fast path steps aside, so this one checks that it does not."""
+    path = tmp_path / "c.txt"
+    path.write_bytes(text.encode("latin-1" if "\u00b5" in text and "\ufeff" not in text else "utf-8"))
+    fast = readers._read_fast(str(path), False)
+    assert fast is not None
+    same(fast, careful(path, False))

@@ -176,8 +176,6 @@ def _run_blade(job: dict) -> dict:
                                "aligned": None, "force": False, "json": True, "quiet": True,
                                "plan": opts.get("plan"), "inspection_plan": _inspection_plan(opts.get("plan")),
                                "memory_limit": job.get("memory_limit")})
-    check_input(job["file"], "MEASURED")
-    check_input(job["nominal"], "--nominal")
     moved = _move_aside(job["out"])
     try:
         with Outputs(inputs=(job["file"], job["nominal"])) as outs:

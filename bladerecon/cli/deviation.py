@@ -135,6 +135,8 @@ def _run(args: argparse.Namespace, temps: dict) -> dict:
     if os.path.splitext(args.measured)[1].lower() in (".step", ".stp", ".iges", ".igs", ".brep", ".brp", ".fcstd"):
         points, surface = _surface_points(args.measured)
         check_coordinates(points, None, args.measured)
+        from bladerecon.core.io.memory import check_command
+        check_command("deviation", len(points), getattr(args, "memory_limit", None), args.measured)
         section, names, lines = None, (), None
     else:
         from bladerecon.core.io.memory import check_command

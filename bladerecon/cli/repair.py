@@ -74,11 +74,11 @@ def run_repair(args: argparse.Namespace) -> dict:
     return summary
 
 
-def _read(path: str):
+def _read(path: str, memory_limit: float | None = None):
     """Points and section index per point (None for a cloud or a single section), checked."""
-    from bladerecon.cli.deviation import _read_measured
+    from bladerecon.cli.deviation import _read_measured_lines
 
-    points, section, names = _read_measured(path)
+    points, section, names = _read_measured_lines(path, memory_limit)[:3]
     return points, (section if len(names) > 1 else None)
 
 
@@ -88,7 +88,7 @@ def _run(args: argparse.Namespace, temps: dict) -> dict:
     from bladerecon.fc.repair import blade_surface, target_shape
 
     _say(args, f"reading {args.measured}")
-    points, section = _read(args.measured)
+    points, section = _read(args.measured, getattr(args, "memory_limit", None))
     _say(args, f"{len(points)} points; reading nominal {args.nominal}")
     surface, sign, _ = blade_surface(args.nominal)
     t_read = time.perf_counter()

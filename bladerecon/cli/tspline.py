@@ -61,13 +61,13 @@ def _say(args, msg: str) -> None:
         print(f"bladerecon: {msg}", file=sys.stderr, flush=True)
 
 
-def _check_coordinates(path: str) -> None:
+def _check_coordinates(path: str, memory_limit: float | None = None) -> None:
     """Coordinates beyond ±1 km (a corrupt line, wrong units) are refused before the fit; a file
     the point reader does not take is left to the fit's own reading (z-maps)."""
     from bladerecon.core.io.readers import read_points
 
     try:
-        ps = read_points(path, require_sections=False)
+        ps = read_points(path, require_sections=False, memory_limit=memory_limit)
     except BladeReconError:
         return
     check_coordinates(ps.points, ps.line, path)
@@ -90,7 +90,7 @@ def run_tspline(args: argparse.Namespace) -> dict:
 
 def _run(args: argparse.Namespace, temp: str | None) -> dict:
     t0 = time.perf_counter()
-    _check_coordinates(args.input)
+    _check_coordinates(args.input, getattr(args, "memory_limit", None))
     _, patches, summary = fit_point_file(args.input, args.tolerance, args.zmap, args.nd, args.nf,
                                          args.max_iterations, args.max_control_points, lambda m: _say(args, m),
                                          args.cut_order, args.seam)

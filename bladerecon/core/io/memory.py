@@ -34,9 +34,14 @@ READ_BASE = 0.10 * GB
 #: (``x;y;z`` with decimal commas, 28 B), 667 (900 000 ``x y z`` lines, 59 B)
 CAREFUL_BYTES_PER_LINE = 550.0
 CAREFUL_BYTES_PER_BYTE = 4.0
+#: and per cell beyond the three coordinates (a wide quoted CMM export: 12 columns of 2-digit
+#: cells took 1340 B a line, 30 columns 1900 B)
+CAREFUL_BYTES_PER_CELL = 80.0
 #: a PLY/PCD scan: the file's bytes, a byte of mask each, then the points as float64.
-#: Measured: 3.3 (binary PLY with normals, 1M points) and 3.7 (ASCII PLY) bytes a byte
+#: Measured: 3.3 (binary PLY with normals, 1M points) and 3.7 (ASCII PLY) bytes a byte; an
+#: ASCII body also keeps six int64 arrays a line (3M short integer rows: 384 MB for 18 MB)
 SCAN_BYTES_PER_BYTE = 5.0
+SCAN_BYTES_PER_LINE = 80.0
 
 
 def available_bytes() -> float | None:
@@ -76,7 +81,7 @@ def deviation_need(n_points: int) -> float:
 COMMAND_NEED = {
     "deviation": (DEVIATION_BASE, DEVIATION_PER_POINT),
     # sections 3k-600k points: 0.11-0.28 GB; a whole-blade cloud 50k-800k: 0.29-0.38 GB;
-    # --slice 6 at 200k/400k/800k: 0.15/0.17/0.18 GB
+    # --slice 6 at 200k/400k/800k: 0.13/0.13/0.15 GB
     "reconstruct": (0.40 * GB, 320.0),
     # 3k-180k points: 0.05-0.10 GB (48k: 0.07 GB; 0.12 GB with --plots, 0.22 GB with --nominal:
     # SECTIONS_NOMINAL and SECTIONS_PLOTS are added for those options)
@@ -132,10 +137,11 @@ def add_memory_option(parser) -> None:
                              "estimated need is larger is refused before the work starts")
 
 
-def careful_read_need(n_lines: int, n_bytes: int) -> float:
-    """Peak memory (bytes) of reading a file of ``n_lines`` lines and ``n_bytes`` bytes with
-    the careful parser, an upper bound."""
-    return READ_BASE + CAREFUL_BYTES_PER_LINE * n_lines + CAREFUL_BYTES_PER_BYTE * n_bytes
+def careful_read_need(n_lines: int, n_bytes: int, n_columns: int = 3) -> float:
+    """Peak memory (bytes) of reading a file of ``n_lines`` lines of ``n_columns`` cells and
+    ``n_bytes`` bytes with the careful parser, an upper bound."""
+    per_line = CAREFUL_BYTES_PER_LINE + CAREFUL_BYTES_PER_CELL * max(0, n_columns - 3)
+    return READ_BASE + per_line * n_lines + CAREFUL_BYTES_PER_BYTE * n_bytes
 
 
 def check_budget(what: str, need: float, limit_gb: float | None, advice: str) -> None:

@@ -42,7 +42,8 @@ from typing import Iterator, Sequence
 import numpy as np
 
 from bladerecon.core.errors import BladeReconError
-from bladerecon.core.io.memory import READ_BASE, SCAN_BYTES_PER_BYTE, careful_read_need, check_budget
+from bladerecon.core.io.memory import (READ_BASE, SCAN_BYTES_PER_BYTE, SCAN_BYTES_PER_LINE, careful_read_need,
+                                        check_budget)
 from bladerecon.core.io.outputs import shown
 from bladerecon.core.io.scanner import read_scan, sniff
 
@@ -143,7 +144,8 @@ def read_points(path: str | os.PathLike, require_sections: bool = True,
 def _read_points(source: str, require_sections: bool, memory_limit: float | None) -> PointSet:
     head = _read_head(source)
     if sniff(head):                      # a scan: binary bodies are read whole (12-56 bytes a point)
-        check_budget(f"reading {source}", READ_BASE + SCAN_BYTES_PER_BYTE * _size(source), memory_limit,
+        check_budget(f"reading {source}", READ_BASE + SCAN_BYTES_PER_BYTE * _size(source)
+                     + SCAN_BYTES_PER_LINE * _line_stats(source, binary=True)[0], memory_limit,
                      "split the scan, or raise --memory-limit")
         return _scan_point_set(source, _read_bytes(source, text=False), require_sections)
     _check_text(source, head)
@@ -274,7 +276,7 @@ def points_upper_bound(path: str | os.PathLike) -> int:
     head = _read_head(source)
     kind = sniff(head)
     if kind is not None:
-        pattern = rb"\nelement[ \t]+vertex[ \t]+(\d+)" if kind == "ply" else rb"\nPOINTS[ \t]+(\d+)"
+        pattern = rb"\nelement[ \t]+vertex[ \t]+(\d{1,15})\s" if kind == "ply" else rb"\nPOINTS[ \t]+(\d{1,15})\s"
         found = re.search(pattern, head[:1 << 16])
         if found:
             return int(found.group(1))
@@ -283,15 +285,15 @@ def points_upper_bound(path: str | os.PathLike) -> int:
     return _count_lines(source)
 
 
-def _line_stats(source: str) -> tuple[int, int, int]:
+def _line_stats(source: str, binary: bool = False) -> tuple[int, int, int]:
     """One pass over the file a block at a time: its line count, its longest line (bytes) and
     that line's number (for the memory budget and the long-line check). A NUL byte anywhere is
-    refused here, at its offset."""
+    refused here, at its offset (``binary``: a scan's body, where NUL bytes are numbers)."""
     n, run, longest, longest_at, offset = 0, 0, 0, 1, 0
     try:
         with open(source, "rb") as fh:
             for block in iter(lambda: fh.read(_BLOCK_BYTES), b""):
-                nul = block.find(b"\0")
+                nul = -1 if binary else block.find(b"\0")
                 if nul >= 0:
                     raise _nul_error(source, offset + nul)
                 offset += len(block)
@@ -326,7 +328,17 @@ def _careful_budget(source: str, memory_limit: float | None, advice: str) -> Non
     if longest > _MAX_LINE_BYTES:
         raise BladeReconError(f"{source}, line {at}: {longest / 1e6:.1f} MB in one line: a point is one line of a "
                               "few numbers; give a point file with one point per line")
-    check_budget(f"reading {source}", careful_read_need(n_lines, _size(source)), memory_limit, advice)
+    check_budget(f"reading {source}", careful_read_need(n_lines, _size(source), _columns(source)), memory_limit,
+                 advice)
+
+
+def _columns(source: str) -> int:
+    """Cells of the first line that is not blank or '#' (the header, or the first row)."""
+    for line in _read_head(source).split(b"\n")[:10_000]:
+        text = line.strip()
+        if text and not text.startswith(b"#"):
+            return len([c for c in re.split(rb"[,;\s]+", text) if c])
+    return 3
 
 
 def _size(source: str) -> int:
@@ -460,9 +472,13 @@ def read_headerless_cloud(path: str | os.PathLike, memory_limit: float | None = 
         return fast
     _careful_budget(source, memory_limit, "give it a header x,y,z (then it is read in blocks), or raise --memory-limit")
     pts, lines, width, first = [], [], None, 0
-    with open(source, "rb") as fh:
+    try:
+        fh = open(source, encoding="utf-8", errors="replace")     # any line ends, CR-only too
+    except OSError as err:
+        raise _open_error(source, err) from None
+    with fh:
         for no, raw in enumerate(fh, 1):
-            text = raw.decode("utf-8", errors="replace").lstrip("\ufeff").strip()
+            text = raw.lstrip("\ufeff").strip()
             if not text or text.startswith("#"):
                 continue
             cells = [c.strip() for c in re.split(r"[,;]", text)] if ("," in text or ";" in text) else text.split()

@@ -123,7 +123,8 @@ def _components_within(points: np.ndarray, r: float) -> np.ndarray:
     130 000 points). Points in one cube of side r/sqrt(3) are all within ``r`` of each other:
     a cube is one node; two cubes at most two apart along every axis are joined when their
     nearest points are within ``r`` (a k-d tree query of one cube's points against the other's).
-    The same components as the pairs give; memory linear in the points."""
+    The components of the pairs within ``r`` (points exactly ``r`` apart may be joined where
+    the pairs' squared-distance test, rounded, does not); memory linear in the points."""
     n = points.shape[0]
     if n == 0:
         return np.zeros(0, dtype=int)
@@ -224,6 +225,8 @@ _TANGENT_NEIGHBOURS = 10
 _MAX_TILT = 0.5
 _MAX_THICKNESS = 0.1      # smallest / middle spread of the neighbours: flat enough
 _DRIFT_NEIGHBOURS = 40    # drifts whose median moves a point
+_MIN_WIDTH = 0.05         # middle / largest spread of the neighbours: not all on one line
+_MIN_VALID = 0.25          # share of the neighbours with a drift for the median to be used
 
 
 def _onto_plane(P: np.ndarray, offset: np.ndarray, a: np.ndarray) -> np.ndarray:
@@ -246,7 +249,10 @@ def _onto_plane(P: np.ndarray, offset: np.ndarray, a: np.ndarray) -> np.ndarray:
         normal = v[:, :, 0]
         tilt = normal @ a
         d = a - tilt[:, None] * normal                 # the axis within the tangent plane
-        ok = (w[:, 0] <= _MAX_THICKNESS * np.maximum(w[:, 1], 1e-300)) & (np.abs(tilt) <= _MAX_TILT)
+        # flat (a plane, not the two sides of a thin edge) and two-dimensional (not one scan
+        # line: ten neighbours along a line leave the normal to the noise)
+        ok = ((w[:, 0] <= _MAX_THICKNESS * np.maximum(w[:, 1], 1e-300))
+              & (w[:, 1] >= _MIN_WIDTH * w[:, 2]) & (np.abs(tilt) <= _MAX_TILT))
         g = d / (1.0 - tilt ** 2)[:, None] - a         # sign-free: the same for -normal
         drift[lo:lo + len(idx)][ok] = g[ok]
     # one normal from ten neighbours 0.1-0.3 mm apart tilts by noise / spacing: times a 2 mm
@@ -254,9 +260,16 @@ def _onto_plane(P: np.ndarray, offset: np.ndarray, a: np.ndarray) -> np.ndarray:
     # drifts around each point (in the cut, where the neighbours of a thin edge's two sides
     # are told apart by the flatness test above) keeps the wall's slope and drops the noise
     _, near = cKDTree(straight).query(straight, min(_DRIFT_NEIGHBOURS, n))
-    with warnings.catch_warnings():                    # no drift around a point: moved straight
-        warnings.simplefilter("ignore", RuntimeWarning)
-        smooth = np.nanmedian(drift[near], axis=1)
+    smooth = np.full((n, 3), np.nan)
+    for lo in range(0, n, 16384):                      # in blocks: (block, 40, 3) drifts
+        around = drift[near[lo:lo + 16384]]
+        valid = np.isfinite(around[:, :, 0]).sum(axis=1)
+        with warnings.catch_warnings():                # no drift around a point: moved straight
+            warnings.simplefilter("ignore", RuntimeWarning)
+            med = np.nanmedian(around, axis=1)
+        med[valid < _MIN_VALID * around.shape[1]] = np.nan    # a few stray drifts are not a median
+        smooth[lo:lo + 16384] = med
+    smooth -= (smooth @ a)[:, None] * a                # in the cut (the median of in-plane vectors is not)
     good = np.all(np.isfinite(smooth), axis=1)
     out = straight.copy()
     out[good] = straight[good] - offset[good, None] * smooth[good]
