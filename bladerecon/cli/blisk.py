@@ -88,10 +88,9 @@ def run_blisk(args: argparse.Namespace) -> dict:
 
     check_input(args.scan, "SCAN")
     check_input(args.nominal, "--nominal")
-    from bladerecon.core.io.memory import check_command
-    from bladerecon.core.io.readers import points_upper_bound
-    check_command("blisk", points_upper_bound(args.scan), getattr(args, "memory_limit", None), args.scan,
-                  workers=1 if args.scheduler else args.workers)
+    from bladerecon.core.io.readers import check_file
+    check_file("blisk", args.scan, getattr(args, "memory_limit", None),
+               workers=1 if args.scheduler else args.workers)
     if not os.path.isfile(args.nominal):
         raise BladeReconError(f"--nominal {args.nominal}: no such file")
     limits = read_plan_limits(args.plan) if args.plan else None

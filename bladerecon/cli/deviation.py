@@ -139,11 +139,8 @@ def _run(args: argparse.Namespace, temps: dict) -> dict:
         check_command("deviation", len(points), getattr(args, "memory_limit", None), args.measured)
         section, names, lines = None, (), None
     else:
-        from bladerecon.core.io.memory import check_command
-        from bladerecon.core.io.readers import points_upper_bound
-        # before the file is read: its line count (a scan's header count) bounds the points
-        check_command("deviation", points_upper_bound(args.measured), getattr(args, "memory_limit", None),
-                      args.measured)
+        from bladerecon.core.io.readers import check_file
+        check_file("deviation", args.measured, getattr(args, "memory_limit", None))   # before it is read
         points, section, names, lines = _read_measured_lines(args.measured, getattr(args, "memory_limit", None))
     _say(args, f"{len(points)} points; reading nominal {args.nominal}")
     nominal = load_nominal(args.nominal)

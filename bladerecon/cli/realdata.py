@@ -146,11 +146,8 @@ def _read_cloud(path: str, scale: float, memory_limit: float | None = None):
     coordinates within ±1 km."""
     from bladerecon.core.sections import slicing
 
-    try:
+    try:     # read_points decodes Latin-1 where UTF-8 fails: no UnicodeDecodeError comes out
         P, lines = slicing.read_cloud(path, scale, memory_limit)
-    except UnicodeDecodeError as err:
-        raise BladeReconError(f"{shown(path, 200)}: not a text point file (byte 0x{err.object[err.start]:02x} at "
-                              f"offset {err.start} is not UTF-8): give 'x y z' text lines") from None
     except BladeReconError as err:
         raise BladeReconError(shown(str(err), 400)) from None
     try:

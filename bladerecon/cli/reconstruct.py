@@ -122,11 +122,10 @@ def _reconstruct(args: argparse.Namespace, say, step: str | None, report: str | 
     if args.pairing == "angle" and args.method == "approximate":
         raise BladeReconError("--pairing angle interpolates the paired points; use it without --method approximate")
     t_start = time.perf_counter()
-    from bladerecon.core.io.memory import check_command
+    from bladerecon.core.io.readers import check_file
     from bladerecon.core.io.outputs import check_input
-    from bladerecon.core.io.readers import points_upper_bound
     check_input(args.input, "INPUT")
-    check_command("reconstruct", points_upper_bound(args.input), args.memory_limit, args.input)
+    check_file("reconstruct", args.input, args.memory_limit)
     say(f"reading {args.input}")
     from bladerecon.cli import autocloud
     pointset, slicing = autocloud.read_input(args)

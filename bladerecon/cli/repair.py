@@ -59,9 +59,8 @@ def run_repair(args: argparse.Namespace) -> dict:
     """Run the subcommand; returns the JSON summary. Nothing is written unless all of it succeeds."""
     check_input(args.measured, "MEASURED")
     check_input(args.nominal, "--nominal")
-    from bladerecon.core.io.memory import check_command
-    from bladerecon.core.io.readers import points_upper_bound
-    check_command("repair", points_upper_bound(args.measured), getattr(args, "memory_limit", None), args.measured)
+    from bladerecon.core.io.readers import check_file
+    check_file("repair", args.measured, getattr(args, "memory_limit", None))
     with Outputs(inputs=(args.measured, args.nominal)) as outs:
         temps = {"output": outs.file(args.output, "--output"),
                  "report": outs.folder(args.report, "--report", force=args.force)}

@@ -170,11 +170,10 @@ def run_sections(args: argparse.Namespace) -> list:
     throat = _throat(args)
     check_input(args.input, "INPUT")
     check_input(args.nominal, "--nominal")
-    from bladerecon.core.io.memory import check_command
-    from bladerecon.core.io.readers import points_upper_bound
     from bladerecon.core.io.memory import SECTIONS_NOMINAL, SECTIONS_PLOTS
-    check_command("sections", points_upper_bound(args.input), getattr(args, "memory_limit", None), args.input,
-                  extra=SECTIONS_NOMINAL * bool(args.nominal) + SECTIONS_PLOTS * bool(args.plots))
+    from bladerecon.core.io.readers import check_file
+    check_file("sections", args.input, getattr(args, "memory_limit", None),
+               extra=SECTIONS_NOMINAL * bool(args.nominal) + SECTIONS_PLOTS * bool(args.plots))
     plan = _inspection_plan(args)
     with Outputs(inputs=(args.input, args.nominal)) as outs:
         plots = outs.folder(args.plots, "--plots", force=args.force)

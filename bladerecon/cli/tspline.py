@@ -76,9 +76,8 @@ def _check_coordinates(path: str, memory_limit: float | None = None) -> None:
 def run_tspline(args: argparse.Namespace) -> dict:
     """Run the subcommand; the STEP is put in place only when all of it succeeded."""
     check_input(args.input, "INPUT")
-    from bladerecon.core.io.memory import check_command
-    from bladerecon.core.io.readers import points_upper_bound
-    check_command("tspline", points_upper_bound(args.input), getattr(args, "memory_limit", None), args.input)
+    from bladerecon.core.io.readers import check_file
+    check_file("tspline", args.input, getattr(args, "memory_limit", None))
     with Outputs(inputs=(args.input,)) as outs:
         temp = outs.file(args.output, "--output")
         summary = _run(args, temp)

@@ -43,12 +43,12 @@ import numpy as np
 
 from bladerecon.core.errors import BladeReconError
 from bladerecon.core.io.memory import (READ_BASE, SCAN_BYTES_PER_BYTE, SCAN_BYTES_PER_LINE, careful_read_need,
-                                        check_budget)
+                                        check_budget, check_command)
 from bladerecon.core.io.outputs import shown
 from bladerecon.core.io.scanner import read_scan, sniff
 
-__all__ = ["PointSet", "headerless_rows", "points_upper_bound", "read_headerless_cloud", "read_points",
-           "write_points_csv"]
+__all__ = ["PointSet", "check_file", "headerless_rows", "points_upper_bound", "read_headerless_cloud",
+           "read_points", "write_points_csv"]
 
 _NO_STRUCTURE = (
     "points have no section structure: add a 'section' column to the CSV or separate "
@@ -143,17 +143,19 @@ def read_points(path: str | os.PathLike, require_sections: bool = True,
 
 def _read_points(source: str, require_sections: bool, memory_limit: float | None) -> PointSet:
     head = _read_head(source)
-    if sniff(head):                      # a scan: binary bodies are read whole (12-56 bytes a point)
-        check_budget(f"reading {source}", READ_BASE + SCAN_BYTES_PER_BYTE * _size(source)
-                     + SCAN_BYTES_PER_LINE * _line_stats(source, binary=True)[0], memory_limit,
-                     "split the scan, or raise --memory-limit")
+    if sniff(head):                      # a scan: bodies are read whole (12-56 bytes a point in binary)
+        # an ASCII body also costs per line; a binary one's newline bytes are numbers, not lines
+        ascii_body = re.search(rb"\n(format|DATA)[ \t]+ascii", head[:1 << 16]) is not None
+        lines = _line_stats(source, binary=True)[0] if ascii_body else 0
+        check_budget(f"reading {source}", READ_BASE + SCAN_BYTES_PER_BYTE * _size(source) + SCAN_BYTES_PER_LINE * lines,
+                     memory_limit, "split the scan, or raise --memory-limit")
         return _scan_point_set(source, _read_bytes(source, text=False), require_sections)
     _check_text(source, head)
     fast = _read_fast(source, require_sections)
     if fast is not None:
         return fast
     # the careful parser holds the file's lines and cells as Python strings
-    _careful_budget(source, memory_limit,
+    _careful_budget(source, head, memory_limit,
                  "write it as a plain CSV (header x,y,z[,section], numeric section labels, no quotes or comments "
                  "after values), which is read in blocks, "
                  "or raise --memory-limit")
@@ -282,7 +284,13 @@ def points_upper_bound(path: str | os.PathLike) -> int:
             return int(found.group(1))
         return _size(source) // 12 + 1         # the smallest record: three float32
     _check_text(source, head)
-    return _count_lines(source)
+    return _line_stats(source)[0]
+
+
+def check_file(command: str, path: str | os.PathLike, limit_gb: float | None, **kwargs) -> None:
+    """The memory budget of ``command`` (:func:`~bladerecon.core.io.memory.check_command`) on a
+    point file, before it is read: its points bounded by :func:`points_upper_bound`."""
+    check_command(command, points_upper_bound(path), limit_gb, str(path), **kwargs)
 
 
 def _line_stats(source: str, binary: bool = False) -> tuple[int, int, int]:
@@ -316,11 +324,7 @@ def _line_stats(source: str, binary: bool = False) -> tuple[int, int, int]:
     return n + (run > 0), longest, longest_at
 
 
-def _count_lines(source: str) -> int:
-    return _line_stats(source)[0]
-
-
-def _careful_budget(source: str, memory_limit: float | None, advice: str) -> None:
+def _careful_budget(source: str, head: bytes, memory_limit: float | None, advice: str) -> None:
     """Before the careful parser reads a file whole: no line longer than a point's line can be
     (a file of one endless line holds no points, and splitting it took 2 GB), and the need of
     its lines and bytes within the budget."""
@@ -328,17 +332,20 @@ def _careful_budget(source: str, memory_limit: float | None, advice: str) -> Non
     if longest > _MAX_LINE_BYTES:
         raise BladeReconError(f"{source}, line {at}: {longest / 1e6:.1f} MB in one line: a point is one line of a "
                               "few numbers; give a point file with one point per line")
-    check_budget(f"reading {source}", careful_read_need(n_lines, _size(source), _columns(source)), memory_limit,
-                 advice)
+    first = _first_line(head)              # the header, or the first row: its cells
+    columns = len([c for c in re.split(rb"[,;\s]+", first) if c]) if first else 3
+    check_budget(f"reading {source}", careful_read_need(n_lines, _size(source), columns), memory_limit, advice)
 
 
-def _columns(source: str) -> int:
-    """Cells of the first line that is not blank or '#' (the header, or the first row)."""
-    for line in _read_head(source).split(b"\n")[:10_000]:
+def _first_line(head: bytes) -> bytes | None:
+    """The first line of a file's head that is not blank or a '#' comment, stripped (no BOM)."""
+    if head.startswith(b"\xef\xbb\xbf"):
+        head = head[3:]
+    for line in head.split(b"\n", 10_000)[:10_000]:
         text = line.strip()
         if text and not text.startswith(b"#"):
-            return len([c for c in re.split(rb"[,;\s]+", text) if c])
-    return 3
+            return text
+    return None
 
 
 def _size(source: str) -> int:
@@ -466,11 +473,13 @@ def read_headerless_cloud(path: str | os.PathLike, memory_limit: float | None = 
     header there, where four columns could be ``section,x,y,z``). Read in blocks like a plain
     table; a bad row is named by its line."""
     source = str(path)
-    _check_text(source, _read_head(source))
+    head = _read_head(source)
+    _check_text(source, head)
     fast = _read_fast(source, False, headerless=True)
     if fast is not None:
         return fast
-    _careful_budget(source, memory_limit, "give it a header x,y,z (then it is read in blocks), or raise --memory-limit")
+    _careful_budget(source, head, memory_limit,
+                    "give it a header x,y,z (then it is read in blocks), or raise --memory-limit")
     pts, lines, width, first = [], [], None, 0
     try:
         fh = open(source, encoding="utf-8", errors="replace")     # any line ends, CR-only too
@@ -511,17 +520,11 @@ def headerless_rows(path: str | os.PathLike) -> bool:
     first megabyte only."""
     source = str(path)
     head = _read_head(source)
-    if sniff(head):
+    first = None if sniff(head) else _first_line(head)
+    if first is None or (b"," not in first and b";" not in first):
         return False
-    for line in head.split(b"\n")[:10_000]:
-        text = line.decode("latin-1").lstrip("\ufeff\xef\xbb\xbf").strip()
-        if not text or text.startswith("#"):
-            continue
-        if "," not in text and ";" not in text:
-            return False
-        cells = re.split(r"[,;]", text)
-        return len(cells) in (3, 4) and all(_is_number(c.strip()) for c in cells)
-    return False
+    cells = re.split(r"[,;]", first.decode("latin-1"))
+    return len(cells) in (3, 4) and all(_is_number(c.strip()) for c in cells)
 
 
 def _read_fast(source: str, require_sections: bool, headerless: bool = False) -> PointSet | None:

@@ -243,8 +243,8 @@ def _onto_plane(P: np.ndarray, offset: np.ndarray, a: np.ndarray) -> np.ndarray:
     _, nb = cKDTree(P).query(P, _TANGENT_NEIGHBOURS)
     drift = np.full((n, 3), np.nan)                    # in-plane move per mm of offset, beyond the axis
     for lo in range(0, n, 65536):                      # in blocks: (block, k, 3) neighbour arrays
-        idx = nb[lo:lo + 65536]
-        X = P[idx] - P[idx].mean(axis=1, keepdims=True)
+        Q = P[nb[lo:lo + 65536]]
+        X = Q - Q.mean(axis=1, keepdims=True)
         w, v = np.linalg.eigh(np.einsum("mki,mkj->mij", X, X))
         normal = v[:, :, 0]
         tilt = normal @ a
@@ -254,7 +254,7 @@ def _onto_plane(P: np.ndarray, offset: np.ndarray, a: np.ndarray) -> np.ndarray:
         ok = ((w[:, 0] <= _MAX_THICKNESS * np.maximum(w[:, 1], 1e-300))
               & (w[:, 1] >= _MIN_WIDTH * w[:, 2]) & (np.abs(tilt) <= _MAX_TILT))
         g = d / (1.0 - tilt ** 2)[:, None] - a         # sign-free: the same for -normal
-        drift[lo:lo + len(idx)][ok] = g[ok]
+        drift[lo:lo + len(Q)][ok] = g[ok]
     # one normal from ten neighbours 0.1-0.3 mm apart tilts by noise / spacing: times a 2 mm
     # offset that is tens of µm. The drift varies slowly along the section: the median of the
     # drifts around each point (in the cut, where the neighbours of a thin edge's two sides
@@ -270,10 +270,8 @@ def _onto_plane(P: np.ndarray, offset: np.ndarray, a: np.ndarray) -> np.ndarray:
         med[valid < _MIN_VALID * around.shape[1]] = np.nan    # a few stray drifts are not a median
         smooth[lo:lo + 16384] = med
     smooth -= (smooth @ a)[:, None] * a                # in the cut (the median of in-plane vectors is not)
-    good = np.all(np.isfinite(smooth), axis=1)
-    out = straight.copy()
-    out[good] = straight[good] - offset[good, None] * smooth[good]
-    return out
+    smooth[~np.all(np.isfinite(smooth), axis=1)] = 0.0     # no drift: moved straight
+    return straight - offset[:, None] * smooth
 
 
 def slice_cylinders(points: np.ndarray, radii, axis=(0.0, 0.0, 1.0), centre=(0.0, 0.0, 0.0),
