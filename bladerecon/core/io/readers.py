@@ -341,7 +341,9 @@ def _first_line(head: bytes) -> bytes | None:
     """The first line of a file's head that is not blank or a '#' comment, stripped (no BOM)."""
     if head.startswith(b"\xef\xbb\xbf"):
         head = head[3:]
-    for line in head.split(b"\n", 10_000)[:10_000]:
+    # CR-only line ends (old Mac exports): otherwise the whole head is one "line" of every cell
+    newline = b"\n" if b"\n" in head or b"\r" not in head else b"\r"
+    for line in head.split(newline, 10_000)[:10_000]:
         text = line.strip()
         if text and not text.startswith(b"#"):
             return text

@@ -1,0 +1,33 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
+"""What an independent hostile sweep of the streaming readers, the memory budget and the
+outputs found after they were written: each case failed before its fix.
+
+The same bar as ``test_hostile_inputs.py``: a refusal is exit 2, one ``bladerecon: error:``
+line, no traceback, nothing left, inputs and special files untouched; a file that is good is
+read as its LF twin is.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from bladerecon.core.io import readers
+from test_hostile_inputs import data, out, refused, run_in_process  # noqa: F401  (fixtures)
+
+ROOT = Path(__file__).resolve().parents[1]
+SAMPLE = ROOT / "resources" / "sample"
+
+
+# --------------------------------------------------------------------------- readers
+def test_cr_only_line_ends_are_read_as_their_lf_twin(tmp_path):
+    """An old Mac export (CR line ends, no LF) was refused as needing 46 GB: the careful
+    parser's budget counted every cell of the file as columns of its first line."""
+    lf = SAMPLE / "measured.csv"
+    cr = tmp_path / "cr.csv"
+    cr.write_bytes(lf.read_bytes().replace(b"\n", b"\r"))
+    want = readers.read_points(lf)
+    got = readers.read_points(cr, memory_limit=1.0)
+    assert np.array_equal(got.points, want.points) and np.array_equal(got.section, want.section)
+    assert got.section_names == want.section_names and np.array_equal(got.line, want.line)
