@@ -31,3 +31,18 @@ def test_cr_only_line_ends_are_read_as_their_lf_twin(tmp_path):
     got = readers.read_points(cr, memory_limit=1.0)
     assert np.array_equal(got.points, want.points) and np.array_equal(got.section, want.section)
     assert got.section_names == want.section_names and np.array_equal(got.line, want.line)
+
+
+@pytest.mark.parametrize("name,body,words", [
+    ("huge.ply", b"ply\nformat ascii 1.0\nelement vertex 999999999999999\nproperty float x\nproperty float y\n"
+                 b"property float z\nend_header\n1 2 3\n", "says 999999999999999 vertices"),
+    ("huge.pcd", b"# .PCD v0.7\nVERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 999999999999\n"
+                 b"HEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 999999999999\nDATA ascii\n1 2 3\n", "says 999999999999 points"),
+], ids=["ply", "pcd"])
+def test_a_scan_header_promising_more_points_than_its_file_holds_is_named_as_such(capfd, data, out, name, body, words):
+    """A 120-byte PLY saying 10^15 vertices was refused as needing 320 million GB of memory
+    (advice: thin the points); the header that does not match its file is what is wrong."""
+    path = data / name
+    path.write_bytes(body)
+    line = refused(capfd, ["reconstruct", path, "--slice", "4", "--quiet"], (data, out))
+    assert words in line and "memory" not in line, line
