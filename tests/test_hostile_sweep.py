@@ -46,3 +46,15 @@ def test_a_scan_header_promising_more_points_than_its_file_holds_is_named_as_suc
     path.write_bytes(body)
     line = refused(capfd, ["reconstruct", path, "--slice", "4", "--quiet"], (data, out))
     assert words in line and "memory" not in line, line
+
+
+# --------------------------------------------------------------------------- outputs
+@pytest.mark.parametrize("name,words", [("old.csv", "a file"), ("full", "a folder"), ("link", "symbolic link to"),
+                                        ("fifo", "FIFO")], ids=["file", "folder", "link-to-a-file", "fifo"])
+def test_simulator_link_never_replaces_what_is_there(capfd, data, out, name, words):
+    """``simulate-instrument --link NAME`` renamed its pty link over NAME and deleted the name at
+    the end: someone's result file of that name was gone. Only a new name, or a link to a pty
+    an earlier run left, is taken; refused before the pty is made (no 60 s wait for START)."""
+    line = refused(capfd, ["simulate-instrument", "--link", out / name], (data, out))
+    assert words in line and "--link" in line, line
+    assert (out / "old.csv").read_text() == "old result\n"

@@ -16,8 +16,8 @@ import time
 
 from bladerecon.acquire.reader import default_journal
 from bladerecon.core.errors import BladeReconError
-from bladerecon.core.io.outputs import (Outputs, check_file_target, check_input, count, finite, fraction,
-                                        one_line_errors, os_error, positive)
+from bladerecon.core.io.outputs import (Outputs, _kind, check_file_target, check_input, count, finite, fraction,
+                                        one_line_errors, os_error, positive, shown)
 
 __all__ = ["add_parser", "run_acquire", "run_simulate"]
 
@@ -140,6 +140,8 @@ def _capture(args, say, temp: str):
 
 def run_simulate(args: argparse.Namespace) -> dict:
     check_input(args.calibration, "--calibration")
+    if args.link:
+        _check_link(args.link)
     if args.sent:
         check_file_target(args.sent, "--sent", inputs=(args.calibration,))
     with Outputs(inputs=(args.calibration,)) as outs:
@@ -147,6 +149,25 @@ def run_simulate(args: argparse.Namespace) -> dict:
         expected = outs.file(args.expected, "--expected")
         summary = _simulate(args, clean, expected, outs)
     return summary
+
+
+def _check_link(path: str) -> None:
+    """The pty is published at ``--link`` by renaming a symbolic link over it, and the name is
+    removed at the end: only a new name, or a link to a pty an earlier run left, may be used
+    (a file of that name would be replaced, then deleted)."""
+    if os.path.islink(path):
+        try:
+            points_to = os.readlink(path)
+        except OSError as err:
+            raise os_error(err, path, "read") from None
+        if points_to.startswith("/dev/pts/"):
+            return
+        raise BladeReconError(f"--link {shown(path, 200)} is a symbolic link to {shown(points_to, 200)}, not to a "
+                              "pseudo-terminal an earlier run left: choose a new name")
+    if os.path.lexists(path):
+        raise BladeReconError(f"--link {shown(path, 200)} exists ({_kind(os.lstat(path).st_mode)}): choose a new name "
+                              "(the pty is published there as a symbolic link and the name removed at the end)")
+    check_file_target(path, "--link")
 
 
 def _simulate(args, clean, expected, outs: Outputs) -> dict:
