@@ -58,3 +58,13 @@ def test_simulator_link_never_replaces_what_is_there(capfd, data, out, name, wor
     line = refused(capfd, ["simulate-instrument", "--link", out / name], (data, out))
     assert words in line and "--link" in line, line
     assert (out / "old.csv").read_text() == "old result\n"
+
+
+@pytest.mark.parametrize("journal", ["{o}/fifo", "/dev/full", "{o}/new.journal"], ids=["fifo", "dev-full", "new"])
+def test_acquire_replay_with_a_journal_is_a_conflict_not_ignored(capfd, data, out, journal):
+    """``acquire --replay J --journal FILE`` exited 0 and never wrote FILE (a user then looks
+    for a journal that is not there)."""
+    argv = ["acquire", "--replay", data / "j.journal", "-o", out / "a.csv", "--quiet",
+            "--journal", journal.format(o=out)]
+    line = refused(capfd, argv, (data, out))
+    assert "--journal" in line and "--replay" in line, line

@@ -81,6 +81,9 @@ def _say(quiet: bool):
 def run_acquire(args: argparse.Namespace) -> dict:
     """Run the capture; the points CSV is put in place only when the capture succeeded."""
     say = _say(args.quiet)
+    if args.replay and args.journal:    # it would be neither written nor read
+        raise BladeReconError("--journal names the journal of a live capture (--port); with --replay the journal is "
+                              "the file replayed: leave out --journal")
     check_input(args.replay, "--replay")
     check_input(args.calibration, "--calibration")
     with Outputs(inputs=(args.replay, args.calibration)) as outs:
