@@ -68,3 +68,11 @@ def test_acquire_replay_with_a_journal_is_a_conflict_not_ignored(capfd, data, ou
             "--journal", journal.format(o=out)]
     line = refused(capfd, argv, (data, out))
     assert "--journal" in line and "--replay" in line, line
+
+
+def test_cloud_scale_on_a_section_file_is_refused_not_ignored(capfd, data, out):
+    """``reconstruct SECTIONS.csv --cloud-scale 1000`` (a file in metres, the user thinks) exited
+    0 with the sections unscaled: the option applies only to clouds (issue 23 §5)."""
+    line = refused(capfd, ["reconstruct", data / "m.csv", "--cloud-scale", "1000", "-o", out / "r.step", "--quiet"],
+                   (data, out))
+    assert "--cloud-scale" in line and "sections" in line, line

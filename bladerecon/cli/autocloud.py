@@ -83,6 +83,8 @@ def read_input(args: argparse.Namespace):
     check_input(args.input, "INPUT")
     ps = read_points(args.input, require_sections=False, memory_limit=getattr(args, "memory_limit", None))
     if ps.structured:           # labelled sections (even one: the section path names what is missing)
+        if getattr(args, "cloud_scale", 1.0) != 1.0:    # the sections are read as they are: say so
+            own.append("cloud_scale")
         if own:
             raise BladeReconError(f"--{own[0].replace('_', '-')} applies to an unordered cloud; "
                                   f"{args.input} holds {len(ps.section_names)} sections")
