@@ -76,3 +76,35 @@ def test_cloud_scale_on_a_section_file_is_refused_not_ignored(capfd, data, out):
     line = refused(capfd, ["reconstruct", data / "m.csv", "--cloud-scale", "1000", "-o", out / "r.step", "--quiet"],
                    (data, out))
     assert "--cloud-scale" in line and "sections" in line, line
+
+
+# --------------------------------------------------------------------------- batch and blisk OUTDIR
+def _lot(folder: Path, n: int) -> Path:
+    manifest = folder / "lot.csv"
+    manifest.write_text("blade,file\n" + "".join(f"b{k},m.csv\n" for k in range(1, n + 1)))
+    return manifest
+
+
+@pytest.mark.parametrize("command", ["batch", "blisk"])
+def test_lot_outdir_through_a_link_is_refused(capfd, data, out, command):
+    """``batch``/``blisk -o LINK`` wrote the lot through a symbolic link into the folder it
+    points to (every other output refuses a link)."""
+    (out / "real").mkdir()
+    (out / "outlink").symlink_to(out / "real")
+    argv = (["batch", _lot(data, 2)] if command == "batch" else ["blisk", data / "m.csv", "--blades", "3"]) + \
+        ["--nominal", data / "n.step", "-o", out / "outlink", "--quiet"]
+    line = refused(capfd, argv, (data, out))
+    assert "symbolic link" in line, line
+
+
+def test_blisk_with_a_bad_line_late_in_the_scan_leaves_no_outdir(capfd, data, out):
+    """The scan is read after OUTDIR is made: a bad line there was one honest line, exit 2, and
+    an empty OUTDIR left behind."""
+    rows = (data / "m.csv").read_text().splitlines()
+    rows[300] = "3,1,abc,2"
+    bad = data / "late_bad.csv"
+    bad.write_text("\n".join(rows) + "\n")
+    line = refused(capfd, ["blisk", bad, "--nominal", data / "n.step", "--blades", "3", "-o", out / "lot",
+                           "--quiet"], (data, out))
+    assert "line 301" in line, line
+

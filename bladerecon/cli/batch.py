@@ -17,6 +17,7 @@ and exits with status 2. ``blisk`` (:mod:`bladerecon.cli.blisk`) uses the same e
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import shutil
@@ -26,7 +27,7 @@ import threading
 import time
 
 from bladerecon.core.errors import BladeReconError
-from bladerecon.core.io.outputs import Outputs, check_input, count, one_line_errors, positive
+from bladerecon.core.io.outputs import Outputs, check_input, count, one_line_errors, positive, shown
 
 __all__ = ["add_parser", "add_lot_options", "run_batch", "run_blade", "run_lot", "read_plan_limits"]
 
@@ -320,9 +321,30 @@ def make_jobs(blades, args, out: str, position: dict | None = None) -> list[dict
     return jobs
 
 
+@contextlib.contextmanager
+def output_folder(args):
+    """OUTDIR (:func:`prepare_output`) for the run inside the block; when the block fails (a bad
+    scan found late, Ctrl-C, SIGTERM before a blade was done) an OUTDIR this run created and
+    nothing filled is removed again: a failed run leaves nothing new."""
+    existed = os.path.lexists(os.path.abspath(args.output))
+    out = prepare_output(args)
+    try:
+        yield out
+    except BaseException:
+        if not existed:
+            try:
+                os.rmdir(out)           # only when empty: blades done and lot/ stay
+            except OSError:
+                pass
+        raise
+
+
 def prepare_output(args) -> str:
     """OUTDIR, absolute: created if missing; one that holds files needs --resume or --force."""
     out = os.path.abspath(args.output)
+    if os.path.islink(out):
+        raise BladeReconError(f"-o {shown(args.output, 200)} is a symbolic link: name the folder itself "
+                              "(outputs are never written through links)")
     if os.path.lexists(out) and not os.path.isdir(out):
         raise BladeReconError(f"-o {args.output}: exists and is not a folder: give a folder name")
     if os.path.isdir(out) and os.listdir(out) and not (args.resume or args.force):
@@ -463,11 +485,11 @@ def run_batch(args: argparse.Namespace) -> dict:
     limits = read_plan_limits(args.plan) if args.plan else None
     if args.plan:
         _inspection_plan(args.plan)     # a bad plan stops here, in one line, before any blade runs
-    out = prepare_output(args)
-    jobs = make_jobs(blades, args, out)
-    where = args.scheduler or f"{args.workers} local worker(s)"
-    _say(args, f"batch: {len(jobs)} blades on {where}")
-    lot = run_lot(jobs, args, out, limits=limits)
+    with output_folder(args) as out:
+        jobs = make_jobs(blades, args, out)
+        where = args.scheduler or f"{args.workers} local worker(s)"
+        _say(args, f"batch: {len(jobs)} blades on {where}")
+        lot = run_lot(jobs, args, out, limits=limits)
     return finish(lot, args)
 
 

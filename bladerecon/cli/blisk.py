@@ -17,7 +17,7 @@ import os
 
 import numpy as np
 
-from bladerecon.cli.batch import _say, add_lot_options, finish, make_jobs, prepare_output, read_plan_limits, run_lot
+from bladerecon.cli.batch import _say, add_lot_options, finish, make_jobs, output_folder, read_plan_limits, run_lot
 from bladerecon.core.errors import BladeReconError
 from bladerecon.core.io.outputs import Outputs, check_coordinates, check_input, count, one_line_errors
 
@@ -95,13 +95,13 @@ def run_blisk(args: argparse.Namespace) -> dict:
         raise BladeReconError(f"--nominal {args.nominal}: no such file")
     limits = read_plan_limits(args.plan) if args.plan else None
     axis = axis_vector(args.axis)
-    out = prepare_output(args)
-    blades, empty = _split(args, out, axis)
-    jobs = make_jobs(blades, args, out, position={"axis": axis.tolist()})
-    _say(args, f"blisk: {len(jobs)} blades on {args.scheduler or f'{args.workers} local worker(s)'}")
-    extra = {"blisk": {"blades": args.blades, "axis": args.axis, "pitch_deg": 360.0 / args.blades,
-                       "empty_sectors": empty}}
-    lot = run_lot(jobs, args, out, extra=extra, limits=limits)
+    with output_folder(args) as out:
+        blades, empty = _split(args, out, axis)
+        jobs = make_jobs(blades, args, out, position={"axis": axis.tolist()})
+        _say(args, f"blisk: {len(jobs)} blades on {args.scheduler or f'{args.workers} local worker(s)'}")
+        extra = {"blisk": {"blades": args.blades, "axis": args.axis, "pitch_deg": 360.0 / args.blades,
+                           "empty_sectors": empty}}
+        lot = run_lot(jobs, args, out, extra=extra, limits=limits)
     if empty:
         raise BladeReconError(f"{len(empty)} of {args.blades} sectors hold no points ({', '.join(empty[:5])}): "
                               f"check --blades and --axis; results in {args.output}")
