@@ -108,3 +108,37 @@ def test_blisk_with_a_bad_line_late_in_the_scan_leaves_no_outdir(capfd, data, ou
                            "--quiet"], (data, out))
     assert "line 301" in line, line
 
+
+@pytest.mark.timeout(120)
+def test_sigterm_stops_a_batch_and_its_workers_at_once(data, tmp_path):
+    """SIGTERM (or Ctrl-C) during a batch: the command said 'no output was completed' but its
+    pool went on to run every blade not started yet, and wrote them all. Now the running blade
+    is stopped (its temporaries removed), no other is started, and the blades done are kept."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    n = 8
+    manifest = _lot(data, n)
+    lot = tmp_path / "lot"
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    proc = subprocess.Popen([sys.executable, "-m", "bladerecon", "batch", str(manifest), "--nominal",
+                             str(data / "n.step"), "-o", str(lot), "--workers", "1"],
+                            stderr=subprocess.PIPE, text=True, env=env)
+    seen = []
+    for line in proc.stderr:           # the first blade done: the pool is running
+        seen.append(line)
+        if "blades done" in line:
+            break
+    proc.send_signal(signal.SIGTERM)
+    t0 = time.monotonic()
+    rest = proc.communicate(timeout=60)[1]
+    took = time.monotonic() - t0
+    assert proc.returncode == 143, "".join(seen) + rest
+    assert "Traceback" not in rest and "terminated" in rest, rest
+    blades = sorted(p.name for p in lot.iterdir() if p.name.startswith("b"))
+    assert 1 <= len(blades) <= 2 and took < 15, (blades, took)        # the one done, at most the one running
+    assert not [p for p in lot.rglob(".*")], "temporaries left"
+    assert "kept in" in rest, rest

@@ -115,11 +115,16 @@ def run_blade(job: dict) -> dict:
 
         parallel._THREADS = 1           # one blade per core: the pool is the parallelism
         try:
+            _RUNNING.set()
             return _run_blade(job)
+        except _Stopped:
+            os._exit(143)                # the blade's temporaries are gone and old results back: stop here
         except BladeReconError as err:
             return _failed(job, str(err))
         except Exception as err:  # noqa: BLE001 - one blade's internal error must not stop the lot
             return _failed(job, f"internal error: {type(err).__name__}: {err}")
+        finally:
+            _RUNNING.clear()
 
 
 def _shown(job: dict, message: str) -> str:
@@ -421,10 +426,16 @@ def _execute(jobs: list[dict], args) -> list[dict]:
         state = "resumed" if rec.get("_resumed") else rec["status"]
         _say(args, f"batch: {n}/{len(jobs)} blades done ({rec['blade']}: {state}), about {left:.0f} s to go")
 
-    if args.scheduler:
-        _on_dask(jobs, args, done)
-    else:
-        _on_pool(jobs, args, done)
+    try:
+        if args.scheduler:
+            _on_dask(jobs, args, done)
+        else:
+            _on_pool(jobs, args, done)
+    except BaseException as err:
+        if results and not isinstance(err, Exception):      # Ctrl-C, SIGTERM
+            _say(args, f"batch: stopped; the {len(results)} blade(s) done are kept in {args.output} "
+                       "(--resume runs the others)")
+        raise
     return [results[i] for i in range(len(jobs))]
 
 
@@ -436,16 +447,61 @@ def _on_pool(jobs: list[dict], args, done) -> None:
     os.environ.update({v: "1" for v in _THREAD_VARS})        # the children's BLAS: one thread, as on Dask
     try:
         ctx = multiprocessing.get_context("spawn")           # no fork of a process that may hold FreeCAD
-        with cf.ProcessPoolExecutor(max_workers=min(args.workers, len(jobs)), mp_context=ctx) as pool:
+        pool = cf.ProcessPoolExecutor(max_workers=min(args.workers, len(jobs)), mp_context=ctx,
+                                      initializer=_worker_signals)
+        try:
             futures = {pool.submit(run_blade, job): i for i, job in enumerate(jobs)}
             for fut in cf.as_completed(futures):
                 done(futures[fut], fut.result())
+        except BaseException:
+            _stop_pool(pool)
+            raise
+        pool.shutdown()
     finally:
         for v, value in saved.items():
             if value is None:
                 os.environ.pop(v, None)
             else:
                 os.environ[v] = value
+
+
+class _Stopped(BaseException):
+    """SIGTERM reached a worker while it ran a blade."""
+
+
+_RUNNING = threading.Event()     # a worker is inside run_blade
+
+
+def _worker_signals() -> None:
+    """In each pool worker: SIGTERM stops the blade it runs (its temporaries removed, old results
+    put back by the ``with``/``except`` on the way out), or the idle worker at once; Ctrl-C is
+    left to the command, which stops the pool."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+    def stop(signum, frame):
+        if _RUNNING.is_set():
+            raise _Stopped()
+        os._exit(143)
+
+    signal.signal(signal.SIGTERM, stop)
+
+
+def _stop_pool(pool, grace: float = 30.0) -> None:
+    """Ctrl-C or SIGTERM in the command: no blade not started is started, the running ones are
+    stopped (SIGTERM: each cleans up its temporaries) and waited for; the blades done stay."""
+    processes = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for proc in processes:
+        if proc.is_alive():
+            proc.terminate()
+    end = time.monotonic() + grace
+    for proc in processes:
+        proc.join(max(0.0, end - time.monotonic()))
+        if proc.is_alive():
+            proc.kill()
+            proc.join(5.0)
 
 
 def _on_dask(jobs: list[dict], args, done) -> None:
