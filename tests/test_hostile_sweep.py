@@ -142,3 +142,33 @@ def test_sigterm_stops_a_batch_and_its_workers_at_once(data, tmp_path):
     assert 1 <= len(blades) <= 2 and took < 15, (blades, took)        # the one done, at most the one running
     assert not [p for p in lot.rglob(".*")], "temporaries left"
     assert "kept in" in rest, rest
+
+
+# --------------------------------------------------------------------------- control bytes in messages
+def test_a_missing_input_named_with_escape_sequences_is_shown_escaped(capfd, data, out):
+    """The memory budget reads the file's head before the reader does: its 'file not found'
+    (and 'NUL byte') lines printed the name's escape sequences raw."""
+    name = data / "no\x1b[31mX\x07.csv"
+    line = refused(capfd, ["sections", name, "--quiet"], (data, out))
+    assert "no\\x1b[31mX\\x07.csv" in line, line
+
+
+def test_a_manifest_file_name_with_escape_sequences_is_shown_escaped(capfd, data, out):
+    """A manifest's file name is bytes from a file: batch's closing error line printed it raw."""
+    manifest = data / "ctl_lot.csv"
+    manifest.write_text("blade,file\nb1,m.csv\nb2,nope\x1b]0;owned\x07.csv\n")
+    argv = ["batch", manifest, "--nominal", data / "n.step", "-o", out / "lot", "--quiet"]
+    capfd.readouterr()
+    assert run_in_process(argv) == 2
+    err = capfd.readouterr().err
+    assert "\x1b" not in err and "\x07" not in err and "nope\\x1b]0;owned\\x07.csv" in err, err
+
+
+def test_progress_lines_show_an_output_name_escaped(capfd, data, out):
+    """The 'wrote NAME' progress line printed a user's escape sequences to the terminal."""
+    csv = out / "d\x1b[2J\x07.csv"
+    capfd.readouterr()
+    assert run_in_process(["deviation", data / "m.csv", "--nominal", data / "n.step", "--csv", csv]) == 0
+    err = capfd.readouterr().err
+    assert "\x1b" not in err and "\x07" not in err and "wrote" in err, err
+    assert csv.exists()

@@ -16,8 +16,8 @@ import time
 
 from bladerecon.acquire.reader import default_journal
 from bladerecon.core.errors import BladeReconError
-from bladerecon.core.io.outputs import (Outputs, _kind, check_file_target, check_input, count, finite, fraction,
-                                        one_line_errors, os_error, positive, shown)
+from bladerecon.core.io.outputs import (Outputs, _kind, check_file_target, check_input, count, escaped, finite,
+                                        fraction, one_line_errors, os_error, positive, shown)
 
 __all__ = ["add_parser", "run_acquire", "run_simulate"]
 
@@ -74,7 +74,7 @@ def add_parser(sub) -> None:
 def _say(quiet: bool):
     def say(msg: str) -> None:
         if not quiet:
-            print(f"bladerecon: {msg}", file=sys.stderr, flush=True)
+            print(f"bladerecon: {escaped(msg)}", file=sys.stderr, flush=True)
     return say
 
 

@@ -27,7 +27,7 @@ import threading
 import time
 
 from bladerecon.core.errors import BladeReconError
-from bladerecon.core.io.outputs import Outputs, check_input, count, one_line_errors, positive, shown
+from bladerecon.core.io.outputs import Outputs, check_input, count, escaped, one_line_errors, positive, shown
 
 __all__ = ["add_parser", "add_lot_options", "run_batch", "run_blade", "run_lot", "read_plan_limits"]
 
@@ -77,7 +77,7 @@ def add_lot_options(p) -> None:
 
 def _say(args, msg: str) -> None:
     if not args.quiet:
-        print(f"bladerecon: {msg}", file=sys.stderr, flush=True)
+        print(f"bladerecon: {escaped(msg)}", file=sys.stderr, flush=True)
 
 
 # --------------------------------------------------------------------------- the plan's limits

@@ -17,7 +17,7 @@ import time
 import numpy as np
 
 from bladerecon.core.errors import BladeReconError
-from bladerecon.core.io.outputs import Outputs, check_coordinates, check_input, one_line_errors, positive
+from bladerecon.core.io.outputs import Outputs, check_coordinates, check_input, escaped, one_line_errors, positive
 
 __all__ = ["add_parser", "run_deviation"]
 
@@ -67,7 +67,7 @@ def add_parser(sub) -> None:
 
 def _say(args, msg: str) -> None:
     if not args.quiet:
-        print(f"bladerecon: {msg}", file=sys.stderr, flush=True)
+        print(f"bladerecon: {escaped(msg)}", file=sys.stderr, flush=True)
 
 
 def _check_outputs(args) -> None:

@@ -213,8 +213,9 @@ def _main(argv: list[str]) -> int:
         elif getattr(args, "json", False):
             print(json.dumps(summary, indent=2 if args.command != "acquire" else None), flush=True)
         return 0
-    except BladeReconError as err:
-        print(f"bladerecon: error: {err}", file=sys.stderr)
+    except BladeReconError as err:      # names from the command line or a file: never raw control bytes
+        from bladerecon.core.io.outputs import escaped
+        print(f"bladerecon: error: {escaped(err)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("bladerecon: interrupted; no output was completed", file=sys.stderr)
@@ -225,7 +226,8 @@ def _main(argv: list[str]) -> int:
     except Exception as err:  # an internal error: one line unless debugging
         if os.environ.get("BLADERECON_DEBUG"):
             raise
-        print(f"bladerecon: internal error: {type(err).__name__}: {err} "
+        from bladerecon.core.io.outputs import escaped
+        print(f"bladerecon: internal error: {type(err).__name__}: {escaped(err)} "
               "(please report it; set BLADERECON_DEBUG=1 for details)", file=sys.stderr)
         return 1
 

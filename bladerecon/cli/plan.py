@@ -18,8 +18,8 @@ import sys
 import numpy as np
 
 from bladerecon.core.errors import BladeReconError
-from bladerecon.core.io.outputs import (Outputs, check_coordinates, check_input, check_samples, one_line_errors,
-                                        positive, shown)
+from bladerecon.core.io.outputs import (Outputs, check_coordinates, check_input, check_samples, escaped,
+                                        one_line_errors, positive, shown)
 
 __all__ = ["add_parser", "run_plan"]
 
@@ -57,7 +57,7 @@ def add_parser(sub) -> None:
 
 def _say(args, msg: str) -> None:
     if not args.quiet:
-        print(f"bladerecon: {msg}", file=sys.stderr, flush=True)
+        print(f"bladerecon: {escaped(msg)}", file=sys.stderr, flush=True)
 
 
 def _numbers(text: str, what: str) -> np.ndarray:

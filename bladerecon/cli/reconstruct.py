@@ -23,8 +23,9 @@ class _Progress:
         self.quiet = quiet
 
     def __call__(self, msg: str) -> None:
-        if not self.quiet:
-            print(f"bladerecon: {msg}", file=sys.stderr, flush=True)
+        if not self.quiet:      # names from the command line: never raw control bytes
+            from bladerecon.core.io.outputs import escaped
+            print(f"bladerecon: {escaped(msg)}", file=sys.stderr, flush=True)
 
 
 def add_parser(sub) -> None:

@@ -17,8 +17,8 @@ import sys
 import numpy as np
 
 from bladerecon.core.errors import BladeReconError
-from bladerecon.core.io.outputs import (Outputs, check_coordinates, check_input, check_samples, finite,
-                                        one_line_errors, positive, shown)
+from bladerecon.core.io.outputs import (Outputs, check_coordinates, check_input, check_samples, escaped,
+                                        finite, one_line_errors, positive, shown)
 
 __all__ = ["add_parser", "run_sections", "flow_direction"]
 
@@ -114,7 +114,7 @@ def add_parser(sub) -> None:
 
 def _say(args, msg: str) -> None:
     if not args.quiet:
-        print(f"bladerecon: {msg}", file=sys.stderr, flush=True)
+        print(f"bladerecon: {escaped(msg)}", file=sys.stderr, flush=True)
 
 
 def _read_sections(path: str, args=None):
@@ -253,7 +253,7 @@ def _nominal_warning(args) -> None:
 
     warning = blade_like_warning(load_nominal(args.nominal))
     if warning:
-        print(f"bladerecon: warning: {warning}", file=sys.stderr, flush=True)
+        print(f"bladerecon: warning: {escaped(warning)}", file=sys.stderr, flush=True)
 
 
 def _inspection_plan(args):

@@ -15,7 +15,7 @@ import sys
 import time
 
 from bladerecon.core.errors import BladeReconError
-from bladerecon.core.io.outputs import Outputs, check_coordinates, check_input, count, one_line_errors, positive
+from bladerecon.core.io.outputs import Outputs, check_coordinates, check_input, count, escaped, one_line_errors, positive
 from bladerecon.core.surface.tspline_job import fit_point_file
 
 __all__ = ["add_parser", "run_tspline"]
@@ -58,7 +58,7 @@ def add_parser(sub) -> None:
 
 def _say(args, msg: str) -> None:
     if not args.quiet:
-        print(f"bladerecon: {msg}", file=sys.stderr, flush=True)
+        print(f"bladerecon: {escaped(msg)}", file=sys.stderr, flush=True)
 
 
 def _check_coordinates(path: str, memory_limit: float | None = None) -> None:

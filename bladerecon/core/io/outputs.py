@@ -45,7 +45,7 @@ from typing import Iterable
 
 from bladerecon.core.errors import BladeReconError
 
-__all__ = ["Outputs", "shown", "os_error_message", "os_error", "check_file_target", "check_folder_target",
+__all__ = ["Outputs", "shown", "escaped", "os_error_message", "os_error", "check_file_target", "check_folder_target",
            "check_input", "check_coordinates", "check_samples", "write_problem", "positive", "finite",
            "count", "fraction", "one_line_errors", "MAX_SAMPLES", "COORDINATE_LIMIT", "SHOWN_LIMIT"]
 
@@ -80,6 +80,13 @@ def shown(text, limit: int = SHOWN_LIMIT) -> str:
         out.append(piece)
         n += len(piece)
     return "".join(out)
+
+
+def escaped(text) -> str:
+    """``text`` with control and format characters escaped as :func:`shown` does, never cut: for
+    whole message lines, which may hold names from the command line or a manifest."""
+    text = str(text)
+    return shown(text, 10 * len(text) + 1)
 
 
 # --------------------------------------------------------------------------- OS errors
