@@ -12,9 +12,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
+from bladerecon.core.errors import BladeReconError
 from bladerecon.core.io import readers
 from test_hostile_inputs import data, out, refused, run_in_process  # noqa: F401  (fixtures)
+from test_readers_fast import same, tables
 
 ROOT = Path(__file__).resolve().parents[1]
 SAMPLE = ROOT / "resources" / "sample"
@@ -31,6 +35,27 @@ def test_cr_only_line_ends_are_read_as_their_lf_twin(tmp_path):
     got = readers.read_points(cr, memory_limit=1.0)
     assert np.array_equal(got.points, want.points) and np.array_equal(got.section, want.section)
     assert got.section_names == want.section_names and np.array_equal(got.line, want.line)
+
+
+
+@settings(max_examples=60, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(text=tables(), require=st.booleans())
+def test_any_table_with_cr_line_ends_reads_as_with_lf(tmp_path, text, require):
+    """Property: a random point table (test_readers_fast's) with CR-only line ends gives the
+    PointSet, or the error, its LF twin gives, within a budget just over the careful parser's
+    need (the CR file's first line is not the whole file)."""
+    lf, cr = tmp_path / "lf.txt", tmp_path / "cr.txt"
+    body = text.replace("\r\n", "\n")
+    lf.write_text(body)
+    cr.write_bytes(body.replace("\n", "\r").encode())
+    try:
+        want = readers.read_points(lf, require)
+    except BladeReconError as err:
+        with pytest.raises(BladeReconError) as got:
+            readers.read_points(cr, require, memory_limit=0.1002)
+        assert str(got.value) == str(err).replace(str(lf), str(cr))
+        return
+    same(readers.read_points(cr, require, memory_limit=0.1002), want)
 
 
 @pytest.mark.parametrize("name,body,words", [
