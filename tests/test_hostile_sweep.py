@@ -197,3 +197,15 @@ def test_progress_lines_show_an_output_name_escaped(capfd, data, out):
     err = capfd.readouterr().err
     assert "\x1b" not in err and "\x07" not in err and "wrote" in err, err
     assert csv.exists()
+
+
+@pytest.mark.parametrize("command", ["batch", "blisk"])
+def test_a_lot_whose_blades_all_fail_leaves_nothing(capfd, data, out, command):
+    """Every blade over its memory budget (or unreadable): exit 2, and OUTDIR/lot/ (with the
+    blisk's scan/) was still written as if it were a lot's result. Now nothing is left."""
+    if command == "batch":
+        argv = ["batch", _lot(data, 2), "--memory-limit", "0.01"]
+    else:       # the split fits the budget, each blade's deviation does not
+        argv = ["blisk", data / "m.csv", "--blades", "3", "--memory-limit", "0.4001"]
+    line = refused(capfd, argv + ["--nominal", data / "n.step", "-o", out / "lot", "--quiet"], (data, out))
+    assert "blades failed, nothing was written" in line and "memory" in line, line

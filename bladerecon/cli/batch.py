@@ -335,12 +335,15 @@ def output_folder(args):
     out = prepare_output(args)
     try:
         yield out
-    except BaseException:
+    except BaseException as err:
         if not existed:
-            try:
-                os.rmdir(out)           # only when empty: blades done and lot/ stay
-            except OSError:
-                pass
+            if isinstance(err, BladeReconError) and not os.path.lexists(os.path.join(out, "lot")):
+                shutil.rmtree(out, ignore_errors=True)   # no lot summary: nothing here is a result
+            else:
+                try:
+                    os.rmdir(out)       # only when empty: blades done (for --resume) and lot/ stay
+                except OSError:
+                    pass
         raise
 
 
@@ -386,6 +389,8 @@ def run_lot(jobs: list[dict], args, out: str, extra: dict | None = None, limits:
            "statistics": lot_statistics(records, all_limits),
            "worst_blades": _worst_blades(records),
            "blades": records}
+    if records and len(failed) == len(records):
+        return lot                      # no blade measured: no lot summary (finish says why)
     _write_lot(out, lot, args)
     return lot
 
@@ -546,7 +551,7 @@ def run_batch(args: argparse.Namespace) -> dict:
         where = args.scheduler or f"{args.workers} local worker(s)"
         _say(args, f"batch: {len(jobs)} blades on {where}")
         lot = run_lot(jobs, args, out, limits=limits)
-    return finish(lot, args)
+        return finish(lot, args)
 
 
 def finish(lot: dict, args) -> dict:
@@ -554,11 +559,18 @@ def finish(lot: dict, args) -> dict:
     summary = {"blades": lot["lot"]["blades"], "ok": lot["lot"]["ok"], "failed": lot["lot"]["failed"],
                "lot_json": os.path.join(args.output, "lot", "lot.json"),
                "errors": {r["blade"]: r["error"] for r in lot["blades"] if r["status"] != "ok"}}
-    _say(args, f"lot summary in {os.path.join(args.output, 'lot')}")
+    nothing = lot["lot"]["blades"] and not lot["lot"]["ok"]
+    if nothing:
+        summary["lot_json"] = None
+    else:
+        _say(args, f"lot summary in {os.path.join(args.output, 'lot')}")
     if lot["lot"]["failed"]:
         if args.json:
             print(json.dumps(summary, indent=2), flush=True)
         first = next(iter(summary["errors"].items()))
+        if nothing:
+            raise BladeReconError(f"all {lot['lot']['blades']} blades failed, nothing was written; "
+                                  f"{first[0]}: {first[1]}")
         raise BladeReconError(f"{lot['lot']['failed']} of {lot['lot']['blades']} blades failed (see "
                               f"{summary['lot_json']}); {first[0]}: {first[1]}")
     return summary

@@ -102,7 +102,7 @@ def run_blisk(args: argparse.Namespace) -> dict:
         extra = {"blisk": {"blades": args.blades, "axis": args.axis, "pitch_deg": 360.0 / args.blades,
                            "empty_sectors": empty}}
         lot = run_lot(jobs, args, out, extra=extra, limits=limits)
-    if empty:
-        raise BladeReconError(f"{len(empty)} of {args.blades} sectors hold no points ({', '.join(empty[:5])}): "
-                              f"check --blades and --axis; results in {args.output}")
-    return finish(lot, args)
+        if empty and lot["lot"]["ok"]:
+            raise BladeReconError(f"{len(empty)} of {args.blades} sectors hold no points ({', '.join(empty[:5])}): "
+                                  f"check --blades and --axis; results in {args.output}")
+        return finish(lot, args)
