@@ -99,6 +99,8 @@ def _run(args: argparse.Namespace, temps: dict) -> dict:
     _say(args, f"twist at the tip {d['twist_deg_at_tip']:.3f}°, bend {d['max_bend_mm']:.3f} mm; "
                f"{len(res.regions)} damaged region(s), missing {res.volume_mm3:.2f} mm³")
     summary = res.summary()
+    if summary["tip"].get("warning"):
+        _say(args, f"warning: {summary['tip']['warning']}")
     summary.update({"units": "mm, mm², mm³, degrees", "measured": args.measured, "nominal": args.nominal,
                     "tolerance_mm": args.tolerance,
                     "le_rule": "flow" if getattr(args, "flow", None) is not None else "blunter_edge"})

@@ -63,12 +63,13 @@ class RepairResult:
     depth_map: dict
     seconds: dict = field(default_factory=dict)
     mode: str = "cloud"
+    sign: float = 1.0                # turns the nominal's (and target's) normal out of the material
 
     def summary(self) -> dict:
         return {"regions": self.regions, "volume_mm3": self.volume_mm3, "deformation": self.deformation,
                 "target_vs_measured": self.target_vs_measured, "naive_vs_target": self.naive_vs_target,
                 "blend": self.blend, "measured_as": self.mode, "alignment": self.alignment.as_dict(),
-                "seconds": self.seconds}
+                "tip": self.depth_map["tip"], "seconds": self.seconds}
 
 
 def adapt_surface(surface: BSplineSurface, fld: SpanField) -> BSplineSurface:
@@ -218,7 +219,7 @@ def repair_target(points: np.ndarray, nominal: BSplineSurface, sign: float = 1.0
                             "points": int(resid.size)},
         naive_vs_target=naive_gap,
         blend=blend_info,
-        depth_map=grid, seconds=seconds, mode=mode)
+        depth_map=grid, seconds=seconds, mode=mode, sign=float(sign))
 
 
 def _default_band(regions: list) -> float:
@@ -351,7 +352,7 @@ def _damage_grid(P, fit, nominal, fld, z_to_v, z_range, tol, cut_height, section
         z_rows = 0.5 * (row_edges[1:] + row_edges[:-1])
         dz = np.diff(row_edges)
         row = np.clip(np.searchsorted(row_edges, z, side="right") - 1, 0, n_rows - 1)
-    cut = z_top if cut_height is None else min(float(cut_height), z_top)
+    cut, tip_basis = _tip_cut(z_top, cut_height, z_hi, mode, z_rows if mode == "sections" else None)
     n_rows = len(z_rows)
     total = np.zeros((n_rows, _U_BINS))
     count = np.zeros((n_rows, _U_BINS))
@@ -375,11 +376,12 @@ def _damage_grid(P, fit, nominal, fld, z_to_v, z_range, tol, cut_height, section
     labels = _merge_periodic(labels, n)
     cell_area = ds * dz[:, None]
     cell_volume = (mean - 0.5 * kappa * mean ** 2) * cell_area
-    regions = []
+    regions, region_labels = [], []
     for lab in np.unique(labels[labels > 0]):
         cells = labels == lab
         if not (damaged & cells).any():
             continue
+        region_labels.append(int(lab))
         rows_in = np.nonzero(cells.any(axis=1))[0]
         x = chord[cells]
         kind = "flank"
@@ -405,8 +407,43 @@ def _damage_grid(P, fit, nominal, fld, z_to_v, z_range, tol, cut_height, section
         total_area += perim * tip_span
     damaged_area = float(sum(r["area_mm2"] for r in regions))
     return {"regions": regions, "depth": mean, "ds": ds, "point_depth": depth, "damaged": damaged, "labels": labels, "z_rows": z_rows,
-            "chord": chord, "u_edges": np.linspace(u0, u1, _U_BINS + 1), "cut_mm": cut,
+            "chord": chord, "u_edges": np.linspace(u0, u1, _U_BINS + 1), "cut_mm": cut, "tip": tip_basis,
+            "region_labels": region_labels,
             "total_area": total_area, "damaged_area": damaged_area, "v_rows": v_rows}
+
+
+def _tip_cut(z_top: float, cut_height: float | None, z_hi: float, mode: str, z_rows) -> tuple[float, dict]:
+    """Height (mm) from which the tip is rebuilt, and how it was decided (the JSON's ``tip``).
+
+    Without ``cut_height`` the tip starts at the highest measured height: on a cloud the
+    broken tip itself, on sections the highest section, which may lie below the real break
+    (the material between is not measured and is counted as missing: an upper bound, said in
+    ``warning``). A ``cut_height`` below that cuts the blade there; above it (at most one
+    section spacing, or 1 mm on a cloud) it says where the blade's material really ends (the
+    break or the cut made before the repair): the band between the highest measurement and
+    the cut is taken as intact and reported as ``unmeasured_mm``."""
+    what = "highest section" if mode == "sections" else "highest measured point"
+    basis = {"from": what, "z_mm": float(z_top), "measured_top_mm": float(z_top), "unmeasured_mm": None}
+    if cut_height is None:
+        if mode == "sections" and z_hi - z_top > 0.01:
+            basis["warning"] = (f"the tip is counted from the {what} (z = {z_top:.3f} mm): material between it and "
+                                f"the real break is not measured and counts as missing (an upper bound); give "
+                                f"--cut-height at the break or at the repair cut")
+        return float(z_top), basis
+    cut = float(cut_height)
+    basis["from"] = "cut_height"
+    if cut <= z_top:
+        basis["z_mm"] = cut
+        return cut, basis
+    gap = (1.5 * float(np.max(np.diff(z_rows)))) if z_rows is not None and len(z_rows) > 1 else 1.0
+    if cut - z_top > gap:
+        raise BladeReconError(
+            f"--cut-height {cut:g} mm lies {cut - z_top:.3g} mm above the {what} (z = {z_top:.4g} mm), more "
+            f"than the {gap:.3g} mm that may be taken as intact without a measurement: measure the blade up to "
+            f"the cut, or give a lower --cut-height")
+    cut = min(cut, float(z_hi))
+    basis.update(z_mm=cut, unmeasured_mm=[float(z_top), cut])
+    return cut, basis
 
 
 def _merge_periodic(labels: np.ndarray, n: int) -> np.ndarray:
