@@ -27,6 +27,7 @@ with part("repair"):
     an = [o for o in doc.Objects if getattr(getattr(o, "Proxy", None), "Type", "") == "RepairAnalysis"]
     result["repair"] = {"count": len(an), "status": an[0].Status if an else None,
                         "twist": an[0].TwistDegAtTip if an else None, "solids": len(an[0].Shape.Solids) if an else 0,
+                        "regions": an[0].RegionCount if an else 0,
                         "undo": list(doc.UndoNames), "nominal_visible": nominal.ViewObject.Visibility,
                         "report": rep.new(),
                         "coloured_points": an[0].ViewObject.Proxy.colours() if an else 0,
@@ -53,7 +54,7 @@ def test_repair_command_in_the_workbench(tmp_path):
     r = result["repair"]
     assert r["count"] == 1 and r["status"] == "ok", r
     assert abs(r["twist"] - sd.twist_tip_deg) < 0.02
-    assert r["solids"] == 2                       # the target and the tip's missing material
+    assert r["solids"] == 1 + r["regions"]        # the target and a missing-material solid per region
     assert r["undo"][:1] == ["Repair target"]
     assert not r["nominal_visible"]
     assert r["coloured_points"] == r["measured_points"]      # the points coloured by missing depth

@@ -17,7 +17,8 @@ from bladerecon.core.geometry.spline import BSplineSurface
 from bladerecon.fc import objects as _objects
 from bladerecon.fc.freecad_env import import_freecad
 
-__all__ = ["blade_surface", "target_shape", "tip_missing_shape", "RepairAnalysis", "make_repair_analysis",
+__all__ = ["blade_surface", "target_shape", "tip_missing_shape", "region_missing_shapes", "missing_shape",
+           "RepairAnalysis", "make_repair_analysis",
            "export_target_step"]
 
 FreeCAD, Part = import_freecad()
@@ -57,6 +58,62 @@ def tip_missing_shape(target: BSplineSurface, v_cut: float, n_u: int = 600, n_v:
     return make_solid(interpolate_grid(grid, "chord"))
 
 
+def _bilinear_face(grid: np.ndarray) -> Any:
+    """A face through the (rows, columns, 3) grid (mm): a B-spline of degree 1 x 1 whose
+    poles are the grid's points (it passes through every one, flat between them)."""
+    rows, cols = grid.shape[:2]
+    surface = Part.BSplineSurface()
+    mults = lambda n: [2] + [1] * (n - 2) + [2]          # noqa: E731  clamped, degree 1
+    surface.buildFromPolesMultsKnots(
+        [[FreeCAD.Vector(*map(float, p)) for p in row] for row in grid],
+        mults(rows), mults(cols), [float(k) for k in range(rows)], [float(k) for k in range(cols)],
+        False, False, 1, 1)
+    return Part.Face(surface)
+
+
+def region_missing_shapes(result) -> list:
+    """The material to add in each shallow damaged region as a closed solid (mm, measured
+    frame): the target over the region, the damaged floor under it
+    (:func:`bladerecon.core.repair.missing.missing_region_grids`, sampled 4x finer than the
+    damage cells, so the faces are flat between samples 0.1-0.3 mm apart) and four side faces
+    between their boundaries. A region that runs all round the section gives no solid."""
+    from bladerecon.core.repair.missing import missing_region_grids
+
+    solids = []
+    for reg in missing_region_grids(result):
+        if reg.closed:
+            continue
+        top, floor = reg.top, reg.floor
+        sides = [np.stack([top[0], floor[0]]), np.stack([top[-1], floor[-1]]),
+                 np.stack([top[:, 0], floor[:, 0]]), np.stack([top[:, -1], floor[:, -1]])]
+        faces = [_bilinear_face(top), _bilinear_face(floor)] + [_bilinear_face(s) for s in sides]
+        shell = Part.Shell(faces)
+        shell.sewShape()
+        try:
+            solid = Part.Solid(Part.Shell(shell.Faces) if shell.ShapeType != "Shell" else shell)
+        except Part.OCCError as err:
+            raise BladeReconError(f"cannot make the missing material of the {reg.kind} region a solid: "
+                                  f"OpenCASCADE refused its faces ({err})") from None
+        if solid.Volume < 0:
+            solid.reverse()
+        if not (solid.isValid() and solid.isClosed()):
+            raise BladeReconError(f"the missing material of the {reg.kind} region is not a valid closed solid")
+        solids.append(solid)
+    return solids
+
+
+def missing_shape(result) -> Any:
+    """All the material to add as one compound of solids (the tip's, each shallow region's),
+    or None where nothing is missing."""
+    pieces = []
+    if any(r["kind"] == "tip" for r in result.regions):
+        g = result.depth_map
+        v_cut = float(np.interp(g["cut_mm"], g["z_rows"], g["v_rows"])) if len(g["z_rows"]) > 1 else 0.0
+        pieces.append(tip_missing_shape(result.adapted, v_cut))
+    pieces += region_missing_shapes(result)
+    return Part.makeCompound(pieces) if pieces else None
+
+
 # --------------------------------------------------------------------------- document object
 
 class RepairAnalysis(_objects._Feature):
@@ -66,7 +123,8 @@ class RepairAnalysis(_objects._Feature):
     holding the blade's B-spline face). Results: the statistics, one JSON line per region,
     each point's missing depth (mm, for colouring the measured blade), and the shapes:
     ``TargetShape`` (the repair target, a solid when its ends are planar),
-    ``MissingShape`` (the tip's missing material, a solid) and ``Shape`` (both).
+    ``MissingShape`` (the missing material, a solid per region: the tip, each shallow region)
+    and ``Shape`` (all of them).
     The class path ``bladerecon.fc.repair.RepairAnalysis`` is permanent (saved files name it).
     """
 
@@ -88,7 +146,7 @@ class RepairAnalysis(_objects._Feature):
         ("App::PropertyFloatList", "PointDepth", "Data", "missing depth per measured point (mm, > 0 under the target)", 2),
         ("App::PropertyString", "Summary", "Data", "the --json summary", 2),
         ("Part::PropertyPartShape", "TargetShape", "Data", "the repair target", 2),
-        ("Part::PropertyPartShape", "MissingShape", "Data", "the tip's missing material", 2),
+        ("Part::PropertyPartShape", "MissingShape", "Data", "the missing material: a solid per region", 2),
     )
 
     def _add_properties(self, obj: Any) -> None:
@@ -115,12 +173,9 @@ class RepairAnalysis(_objects._Feature):
                             cut_height=obj.CutHeight or None, blend=obj.Blend or None, section=section)
         target, _ = target_shape(res.target)
         pieces = [target]
-        tip = [r for r in res.regions if r["kind"] == "tip"]
-        missing = None
-        if tip:
-            g = res.depth_map
-            missing = tip_missing_shape(res.adapted, float(np.interp(g["cut_mm"], g["z_rows"], g["v_rows"])))
-            pieces.append(missing)
+        missing = missing_shape(res)
+        if missing is not None:
+            pieces += missing.Solids
         d = res.deformation
         obj.VolumeMm3, obj.TwistDegAtTip, obj.MaxBendMm = res.volume_mm3, d["twist_deg_at_tip"], d["max_bend_mm"]
         obj.RegionCount = len(res.regions)

@@ -4,8 +4,9 @@
 ``missing_map.png``: the depth of missing material (mm) on the nominal's (chord position x
 span height) grid, damaged cells outlined, the tip region shaded. ``regions.csv``: one row
 per region (kind, area mm², max depth mm, volume mm³, span range mm, chord range).
-``missing.step``: the material to add at the tip as a solid (the shallow regions are given
-by their depth map only, see docs/repair.md). The folder given is the command's temporary
+``missing.step``: the material to add, one solid per region (the tip; each shallow region
+between the target and its damaged floor, :func:`bladerecon.fc.repair.region_missing_shapes`).
+The folder given is the command's temporary
 folder (all or nothing, :class:`bladerecon.core.io.outputs.Outputs`).
 """
 from __future__ import annotations
@@ -60,16 +61,14 @@ def _regions_csv(path: str, regions: list) -> None:
 def write_repair_report(folder: str, summary: dict, res) -> None:
     """Write the report files into ``folder`` (mm, mm², mm³, degrees)."""
     from bladerecon.fc.export import write_step
-    from bladerecon.fc.repair import tip_missing_shape
+    from bladerecon.fc.repair import missing_shape
 
     _missing_map(os.path.join(folder, "missing_map.png"), res)
     _regions_csv(os.path.join(folder, "regions.csv"), res.regions)
-    tip = [r for r in res.regions if r["kind"] == "tip"]
     files = ["missing_map.png", "regions.csv"]
-    if tip:
-        g = res.depth_map
-        v_cut = float(np.interp(g["cut_mm"], g["z_rows"], g["v_rows"])) if len(g["z_rows"]) > 1 else 0.0
-        write_step(tip_missing_shape(res.adapted, v_cut), os.path.join(folder, "missing.step"))
+    missing = missing_shape(res)
+    if missing is not None:
+        write_step(missing, os.path.join(folder, "missing.step"))
         files.append("missing.step")
     with open(os.path.join(folder, "summary.json"), "w", encoding="utf-8") as f:
         json.dump(summary, f, indent=2)
