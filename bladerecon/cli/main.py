@@ -181,13 +181,21 @@ def _on_sigterm(signum, frame) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
+    as_program = argv is None
     argv = list(sys.argv[1:] if argv is None else argv)
     previous = signal.signal(signal.SIGTERM, _on_sigterm) if _main_thread() else None
     try:
-        return _main(argv)
+        code = _main(argv)
     finally:
         if previous is not None:
             signal.signal(signal.SIGTERM, previous)
+    if as_program and code in (130, 143):
+        # Interrupted, temporaries already removed: leave now. FreeCAD interrupted while it reads
+        # a STEP can crash in the interpreter's clean-up and turn 130 into 1.
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(code)
+    return code
 
 
 def _main_thread() -> bool:

@@ -28,6 +28,19 @@ class _Progress:
             print(f"bladerecon: {escaped(msg)}", file=sys.stderr, flush=True)
 
 
+def _fairing_runs(sections, table) -> list[dict]:
+    """Where each run of replaced points is (issue 16 item 6): section, first and last line,
+    chord fraction, largest displacement; from the rows of ``faired_points.csv``."""
+    from bladerecon.core.sections.fairing import describe_runs
+
+    runs = []
+    for k, sec in enumerate(sections.sections):
+        rows = table[table[:, 0] == k]
+        for r in describe_runs(sec.points, rows[:, 10] > 0, rows[:, 9], sec.lines):
+            runs.append({"section": sec.name, **r})
+    return runs
+
+
 def add_parser(sub) -> None:
     r = sub.add_parser("reconstruct", help="measured sections -> native B-spline surface (+ STEP)",
                        description="Fit one periodic x clamped cubic B-spline surface through measured "
@@ -78,7 +91,9 @@ def _check_units(measured: np.ndarray, on_points: np.ndarray, args: argparse.Nam
     extent = float(np.linalg.norm(np.ptp(measured, axis=0))) if len(measured) else 0.0
     if median <= 0.01 * extent:        # the usual case, decided without reading the nominal again
         return
-    shape = read_shape(args.nominal)
+    from bladerecon.core.io.outputs import signals_held
+    with signals_held():                # OCC's STEP reader must not be interrupted
+        shape = read_shape(args.nominal)
     box = shape.BoundBox
     size = float(np.sqrt(box.XLength ** 2 + box.YLength ** 2 + box.ZLength ** 2))
     if median > 0.01 * size:
@@ -150,6 +165,7 @@ def _reconstruct(args: argparse.Namespace, say, step: str | None, report: str | 
     if args.fair:
         say("fairing: looking for bad points")
         pts, fairing, fairing_table = realdata.apply_fairing(sections, args)
+        fairing["runs"] = _fairing_runs(sections, fairing_table)
         say(f"fairing: {len(fairing['replaced'])} points replaced")
     say("fitting section curves and surface")
     measured_start = not sections.sections[0].reordered

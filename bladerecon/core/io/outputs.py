@@ -32,26 +32,54 @@ Standard library only (the core never imports FreeCAD). Lengths in mm.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import errno
 import math
 import os
 import shutil
+import signal
 import stat
 import sys
 import tempfile
+import threading
 import unicodedata
 from dataclasses import dataclass
 from typing import Iterable
 
 from bladerecon.core.errors import BladeReconError
 
-__all__ = ["Outputs", "shown", "escaped", "os_error_message", "os_error", "check_file_target", "check_folder_target",
+__all__ = ["Outputs", "shown", "escaped", "signals_held", "os_error_message", "os_error", "check_file_target", "check_folder_target",
            "check_input", "check_coordinates", "check_samples", "write_problem", "positive", "finite",
            "count", "fraction", "one_line_errors", "MAX_SAMPLES", "COORDINATE_LIMIT", "SHOWN_LIMIT"]
 
 SHOWN_LIMIT = 60                  # characters of file text shown in a message
 MAX_SAMPLES = 2_000_000           # points a --step may make (~50 MB of coordinates)
 COORDINATE_LIMIT = 1.0e6          # mm: one kilometre; no blade is measured beyond it
+
+
+# --------------------------------------------------------------------------- signals
+@contextlib.contextmanager
+def signals_held():
+    """Ctrl-C and SIGTERM held while the block runs and delivered after it (to the handler that
+    was in place). For FreeCAD reading a STEP file: interrupted there, OpenCASCADE's reader
+    threads crash on the objects being torn down and the command ends with status 1."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    got: list[int] = []
+    wanted = (signal.SIGINT, signal.SIGTERM)
+    before = {s: signal.signal(s, lambda signum, frame: got.append(signum)) for s in wanted}
+    try:
+        yield
+    finally:
+        for s, handler in before.items():
+            signal.signal(s, handler)
+        if got:
+            handler = before[got[0]]
+            if callable(handler):
+                handler(got[0], None)
+            elif handler == signal.SIG_DFL:
+                os.kill(os.getpid(), got[0])
 
 
 # --------------------------------------------------------------------------- text shown
