@@ -206,7 +206,7 @@ def test_a_lot_whose_blades_all_fail_leaves_nothing(capfd, data, out, command):
     if command == "batch":
         argv = ["batch", _lot(data, 2), "--memory-limit", "0.01"]
     else:       # the split fits the budget, each blade's deviation does not
-        argv = ["blisk", data / "m.csv", "--blades", "3", "--memory-limit", "0.4001"]
+        argv = ["blisk", data / "m.csv", "--blades", "1", "--memory-limit", "0.4001"]
     line = refused(capfd, argv + ["--nominal", data / "n.step", "-o", out / "lot", "--quiet"], (data, out))
     assert "blades failed, nothing was written" in line and "memory" in line, line
 
