@@ -254,7 +254,9 @@ def test_repair_analysis_document_object(tmp_path):
         nominal.Shape = read_shape(str(ROOT / "resources" / "sample" / "nominal.step"))
         obj = make_repair_analysis(doc, measured, nominal)
         doc.recompute()
-        assert obj.Status == "ok", obj.Status
+        # 15 sections that stop under the break and no CutHeight: the volume is an upper bound,
+        # and the status says so (the GUI shows it) instead of "ok"
+        assert "upper bound" in obj.Status and "--cut-height" in obj.Status, obj.Status
         assert abs(obj.TwistDegAtTip - sd.twist_tip_deg) < 0.02
         assert obj.TargetShape.isValid() and obj.TargetShape.Solids
         # a missing solid per region, the tip's first: it holds the tip region's volume,
@@ -270,6 +272,14 @@ def test_repair_analysis_document_object(tmp_path):
         assert abs(mesh.Volume - tip["volume_mm3"]) < 0.01 * tip["volume_mm3"]
         shallow = sum(r["volume_mm3"] for r in regions if r["kind"] != "tip")
         assert abs(sum(s.Volume for s in solids[1:]) - shallow) < 0.05 * shallow
+        # the target and the missing material as child objects, each a copy of its shape
+        from bladerecon.fc.repair import repair_pieces
+        pieces = {p.Piece: p for p in repair_pieces(obj)}
+        assert set(pieces) == {"target", "missing"}
+        assert pieces["target"].Shape.Volume == pytest.approx(obj.TargetShape.Volume, rel=1e-12)
+        assert len(pieces["target"].Shape.Faces) == len(obj.TargetShape.Faces)
+        assert len(pieces["missing"].Shape.Solids) == len(regions)
+        assert pieces["missing"].Shape.Volume == pytest.approx(obj.MissingShape.Volume, rel=1e-12)
         assert len(obj.PointDepth) == len(measured.Points)
         export_target_step(obj, str(tmp_path / "target.step"))
         assert (tmp_path / "target.step").stat().st_size > 1000
@@ -282,6 +292,8 @@ def test_repair_analysis_document_object(tmp_path):
         again = [o for o in doc.Objects if getattr(getattr(o, "Proxy", None), "Type", "") == "RepairAnalysis"][0]
         assert again.VolumeMm3 == volume and len(again.Regions) == n_regions
         assert not again.TargetShape.isNull() and again.Measured is not None
+        from bladerecon.fc.repair import repair_pieces
+        assert sorted(p.Piece for p in repair_pieces(again)) == ["missing", "target"]
     finally:
         FreeCAD.closeDocument(doc.Name)
 

@@ -18,7 +18,7 @@ from bladerecon.fc import objects as _objects
 from bladerecon.fc.freecad_env import import_freecad
 
 __all__ = ["blade_surface", "target_shape", "tip_missing_shape", "region_missing_shapes", "missing_shape",
-           "RepairAnalysis", "make_repair_analysis",
+           "RepairAnalysis", "RepairPiece", "repair_pieces", "make_repair_analysis",
            "export_target_step"]
 
 FreeCAD, Part = import_freecad()
@@ -186,9 +186,9 @@ class RepairAnalysis(_objects._Feature):
         obj.PointDepth = [float(x) for x in res.depth_map["point_depth"]]
         obj.Summary = json.dumps(res.summary())
         obj.TargetShape = target
-        if missing is not None:
-            obj.MissingShape = missing
+        obj.MissingShape = missing if missing is not None else Part.Shape()
         obj.Shape = _objects.compound(pieces)
+        return res.depth_map["tip"].get("warning")      # sections without a cut: an upper bound
 
 
 def _blade_face(nominal, name: str) -> tuple[BSplineSurface, float]:
@@ -207,15 +207,51 @@ def _blade_face(nominal, name: str) -> tuple[BSplineSurface, float]:
     return surface, float(sign)
 
 
+class RepairPiece(_objects._Feature):
+    """One shape of a RepairAnalysis as an object of its own, shown as its child in the tree:
+    ``Piece`` "target" (the repair target) or "missing" (the material to add, a solid per
+    region), copied from the analysis at each recompute, so each can be shown, coloured and
+    exported on its own (File > Export). The class path ``bladerecon.fc.repair.RepairPiece``
+    is permanent (saved files name it)."""
+
+    TYPE = "RepairPiece"
+    PROPERTIES = (
+        ("App::PropertyLink", "Analysis", "Input", "the RepairAnalysis whose shape this is", 1),
+        ("App::PropertyString", "Piece", "Input", "target or missing", 1),
+    )
+
+    def compute(self, obj: Any) -> None:
+        analysis = obj.Analysis
+        if analysis is None:
+            raise BladeReconError(f"{obj.Label}: no repair analysis linked")
+        shape = analysis.TargetShape if obj.Piece == "target" else analysis.MissingShape
+        obj.Shape = shape.copy()
+
+
+def repair_pieces(analysis: Any) -> list:
+    """The RepairPiece objects of ``analysis`` (its children in the tree)."""
+    return [o for o in analysis.InList
+            if getattr(getattr(o, "Proxy", None), "Type", "") == "RepairPiece" and o.Analysis == analysis]
+
+
 def make_repair_analysis(doc: Any, measured: Any, nominal: Any, tolerance: float = 0.03,
                          name: str = "RepairAnalysis") -> Any:
-    """A RepairAnalysis of ``measured`` (MeasuredPoints) against ``nominal`` (object with a shape)."""
+    """A RepairAnalysis of ``measured`` (MeasuredPoints) against ``nominal`` (object with a shape),
+    with its target and missing material as child objects (:class:`RepairPiece`)."""
     obj = doc.addObject("Part::FeaturePython", name)
     RepairAnalysis(obj)
     obj.Label = "Repair analysis"
     obj.Measured, obj.Nominal = measured, nominal
     obj.Tolerance = float(tolerance)
     _objects._attach_view(obj, "RepairAnalysis")
+    for piece, label in (("target", "Repair target"), ("missing", "Missing material")):
+        child = doc.addObject("Part::FeaturePython", f"{name}_{piece}")
+        RepairPiece(child)
+        child.Label = label
+        child.Analysis, child.Piece = obj, piece
+        _objects._attach_view(child, "RepairPiece")
+        if FreeCAD.GuiUp and child.ViewObject is not None:
+            child.ViewObject.Visibility = False        # the analysis draws both with the points
     return obj
 
 

@@ -48,4 +48,20 @@ class ViewProviderRepairAnalysis(_ViewProvider):
         self.points.set(pts, colormap.deviation_colours(-depth, limit))
 
 
+    def claimChildren(self) -> list:  # noqa: N802
+        from bladerecon.fc.repair import repair_pieces
+        return repair_pieces(self.Object) if getattr(self, "Object", None) is not None else []
+
+
+class ViewProviderRepairPiece(_ViewProvider):
+    """A RepairPiece: Part's own display of its shape (hidden when made, as the analysis shows
+    both shapes with the coloured points; shown on its own from the tree)."""
+
+    ICON = "BladeRecon_Compare"
+
+    def attach(self, vobj: Any) -> None:
+        self.Object = vobj.Object
+
+
 objects.register_view_provider("RepairAnalysis", ViewProviderRepairAnalysis)
+objects.register_view_provider("RepairPiece", ViewProviderRepairPiece)
