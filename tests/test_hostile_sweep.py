@@ -251,3 +251,14 @@ def test_an_interrupted_command_exits_130_whatever_its_libraries_do_at_exit():
                 "s.run_sections = run\n"
                 "sys.exit(main())\n")
     assert r.returncode == 130 and "interrupted" in r.stderr, (r.returncode, r.stderr)
+
+
+@pytest.mark.parametrize("target", ["/proc/version", "/proc/self/x.csv", "/sys/kernel"])
+def test_a_kernel_file_system_is_not_called_a_full_disk(capfd, data, out, target):
+    """/proc and /sys have no blocks at all: an output there was refused as 'disk full; free
+    space there', which no one can do. The write's own error is named instead."""
+    option = "--plots" if target == "/sys/kernel" else "-o"
+    argv = (["sections", data / "m.csv", "--lenient", "--force"] if option == "--plots"
+            else ["plan", data / "n.step", "--heights", "10,50"]) + [option, target, "--quiet"]
+    line = refused(capfd, argv, (data, out))
+    assert "disk full" not in line and "cannot write" in line, line

@@ -182,6 +182,8 @@ def _free_bytes(folder: str) -> int | None:
         st = os.statvfs(folder)
     except OSError:
         return None
+    if st.f_blocks == 0:            # no blocks at all: /proc, /sys (not a disk that is full)
+        return None
     blocks = st.f_bfree if os.geteuid() == 0 else st.f_bavail    # root may use the reserve
     return blocks * st.f_frsize
 
