@@ -219,6 +219,7 @@ def test_cli_json_step_and_bad_input(tmp_path):
     assert abs(s["deformation"]["twist_deg_at_tip"] - sd.twist_tip_deg) < 0.02
     for key in ("regions", "volume_mm3", "target_vs_measured", "blend", "seconds"):
         assert key in s
+    assert s["tip"]["from"] == "highest section" and "upper bound" in s["tip"]["warning"]
     assert {"kind", "area_mm2", "max_depth_mm", "volume_mm3", "span_range_mm", "chord_range"} <= set(s["regions"][0])
     assert (tmp_path / "t.step").stat().st_size > 1000
     for name in ("missing_map.png", "regions.csv", "missing.step", "report.html", "summary.json"):
@@ -322,6 +323,11 @@ def test_cli_cut_height_blend_and_max_damage(tmp_path):
     tips = [reg for reg in s["regions"] if reg["kind"] == "tip"]
     assert tips and min(reg["span_range_mm"][0] for reg in tips) <= cut + 0.5
     assert s["volume_mm3"] > p["volume_mm3"]
+    assert p["tip"]["from"] == "highest measured point" and "warning" not in p["tip"]
+    assert s["tip"]["from"] == "cut_height" and s["tip"]["z_mm"] == pytest.approx(cut)
+    r = _cli("c.csv", "--nominal", nominal, "--cut-height", top + 5.0, "-o", "x.step", cwd=tmp_path)
+    assert r.returncode == 2 and r.stderr.strip().splitlines()[-1].startswith("bladerecon: error: --cut-height")
+    assert "above the highest measured point" in r.stderr and not (tmp_path / "x.step").exists()
     r = _cli("c.csv", "--nominal", nominal, "--max-damage", 0.5, "-o", "x.step", "--quiet", cwd=tmp_path)
     assert r.returncode == 2 and "damage over" in r.stderr and r.stderr.strip().count("\n") == 0
     assert not (tmp_path / "x.step").exists()
