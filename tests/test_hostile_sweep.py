@@ -262,3 +262,26 @@ def test_a_kernel_file_system_is_not_called_a_full_disk(capfd, data, out, target
             else ["plan", data / "n.step", "--heights", "10,50"]) + [option, target, "--quiet"]
     line = refused(capfd, argv, (data, out))
     assert "disk full" not in line and "cannot write" in line, line
+
+
+def test_lot_outdir_on_a_read_only_file_system_is_the_usual_one_line(capfd, data, out):
+    """batch/blisk -o on a read-only mount said 'cannot create the folder: Read-only file
+    system' (the OS's words, none of the advice every other output gives)."""
+    import os
+    import subprocess
+
+    if os.geteuid() != 0:
+        pytest.skip("a read-only bind mount needs root")
+    src, where = out / "rosrc", out / "ro"
+    src.mkdir()
+    where.mkdir()
+    if subprocess.run(["mount", "--bind", str(src), str(where)]).returncode:
+        pytest.skip("mount refused")
+    try:
+        if subprocess.run(["mount", "-o", "remount,bind,ro", str(where)]).returncode:
+            pytest.skip("remount refused")
+        line = refused(capfd, ["batch", _lot(data, 1), "--nominal", data / "n.step", "-o", where / "lot", "--quiet"],
+                       (data,))
+        assert "cannot write" in line and "read-only file system; choose a writable folder" in line, line
+    finally:
+        subprocess.run(["umount", str(where)])

@@ -27,8 +27,8 @@ import threading
 import time
 
 from bladerecon.core.errors import BladeReconError
-from bladerecon.core.io.outputs import (Outputs, check_input, count, escaped, one_line_errors, positive, shown,
-                                        signals_held)
+from bladerecon.core.io.outputs import (Outputs, check_input, count, escaped, one_line_errors, os_error, positive,
+                                        shown, signals_held)
 
 __all__ = ["add_parser", "add_lot_options", "run_batch", "run_blade", "run_lot", "read_plan_limits"]
 
@@ -365,7 +365,7 @@ def prepare_output(args) -> str:
     try:
         os.makedirs(out, exist_ok=True)
     except OSError as err:
-        raise BladeReconError(f"-o {args.output}: cannot create the folder: {err.strerror}") from None
+        raise os_error(err, args.output) from None    # read-only, disk full, ...: the one line every output gives
     return out
 
 
