@@ -285,3 +285,14 @@ def test_lot_outdir_on_a_read_only_file_system_is_the_usual_one_line(capfd, data
         assert "cannot write" in line and "read-only file system; choose a writable folder" in line, line
     finally:
         subprocess.run(["umount", str(where)])
+
+
+def test_repair_progress_shows_an_input_name_escaped(capfd, data, out):
+    """repair's 'reading NAME' line printed a file name's escape sequences raw (the other
+    commands' progress lines were escaped first)."""
+    measured = data / "r\x1b[31mX.csv"
+    measured.write_bytes((data / "m.csv").read_bytes())
+    capfd.readouterr()
+    assert run_in_process(["repair", measured, "--nominal", data / "text.step", "-o", out / "r.step"]) == 2
+    err = capfd.readouterr().err
+    assert "\x1b" not in err and "reading" in err and "r\\x1b[31mX.csv" in err, err

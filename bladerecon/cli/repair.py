@@ -12,7 +12,7 @@ import argparse
 import sys
 import time
 
-from bladerecon.core.io.outputs import Outputs, check_input, finite, one_line_errors, positive
+from bladerecon.core.io.outputs import Outputs, check_input, escaped, finite, one_line_errors, positive
 
 __all__ = ["add_parser", "run_repair"]
 
@@ -52,7 +52,7 @@ def add_parser(sub) -> None:
 
 def _say(args, msg: str) -> None:
     if not args.quiet:
-        print(f"bladerecon: {msg}", file=sys.stderr, flush=True)
+        print(f"bladerecon: {escaped(msg)}", file=sys.stderr, flush=True)
 
 
 def run_repair(args: argparse.Namespace) -> dict:
