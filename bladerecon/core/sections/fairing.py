@@ -18,6 +18,12 @@ the threshold is taken back. A bump pulls the first fit towards itself, so its c
 neighbours may look bad at first; rejecting the worst first and re-admitting at the end
 keeps them.
 
+The round leading and trailing edges are judged first, against their own fair model
+(:mod:`bladerecon.core.sections.edge_bad_points`: a circular arc tangent to the flanks, runs
+left out in turn): the fair fit has a knot at every edge point and follows a run there. The
+points that model finds bad stay rejected in the fair fit and are put back onto the edge
+model; an edge that is not such an arc is left to the fair fit as before.
+
 Units: mm (default threshold 0.003 mm = 3 µm).
 """
 from __future__ import annotations
@@ -29,6 +35,7 @@ import numpy as np
 from bladerecon.core.geometry.bspline import closed_parameters, collocation_matrix, curve_derivatives, evaluate_curve
 from bladerecon.core.errors import BladeReconError
 from bladerecon.core.geometry.fitting import interpolate_curve_with_end_derivatives, smoothing_matrix, solve_sparse
+from bladerecon.core.sections.edge_bad_points import EDGE_FRACTION, EdgeJudgement, judge_edges
 from bladerecon.core.surface.section_curves import refine_curve_parameters
 from bladerecon.core.geometry.spline import BSplineCurve
 
@@ -41,6 +48,7 @@ __all__ = [
     "bad_runs",
     "replace_runs",
     "fair_section",
+    "describe_runs",
 ]
 
 DEFAULT_THRESHOLD = 0.003   # mm: seed 001, 3 µm for a 2 µm system
@@ -58,6 +66,8 @@ class SectionFairing:
     displacement: np.ndarray  # (n,) mm, |faired - original| (0 for good points)
     distance: np.ndarray      # (n,) mm, distance of each original point to the fair fit
     runs: tuple[tuple[int, int], ...]   # (first index, length) of each run of bad points
+    by_edge_model: np.ndarray | None = None    # (n,) bool: judged bad by the LE/TE model
+    edges: tuple[EdgeJudgement, ...] = ()      # the two edge judgements (what each edge was)
 
 
 def _fit(points: np.ndarray, t: np.ndarray, w: np.ndarray, knots: np.ndarray,
@@ -181,19 +191,25 @@ def fair_fit(points: np.ndarray, weights: np.ndarray | None = None, points_per_p
     return curve, t, d
 
 
-def detect_bad_points(points: np.ndarray, threshold: float = DEFAULT_THRESHOLD,
-                      max_rounds: int = 60, name: str = "", **fit_options) -> tuple[np.ndarray, np.ndarray, BSplineCurve, np.ndarray]:
-    """Bad points of a closed, ordered section: farther than ``threshold`` from the fair fit.
-
-    Worst-first rejection (module docstring). Returns ``(bad (n,) bool, distance (n,) mm,
-    fair curve, t)``; the distances are those of every original point to the final fit of
-    the good points.
-    """
+def _detect(points: np.ndarray, threshold: float = DEFAULT_THRESHOLD, max_rounds: int = 60,
+            name: str = "", edges: bool = True, **fit_options):
+    """:func:`detect_bad_points` plus the edge judgements: ``(bad, distance, curve, t,
+    edge_bad, edge_feet, judgements)``."""
     P = np.asarray(points, float)
     n = P.shape[0]
     if n < 12:
         raise BladeReconError(f"fairing needs at least 12 points on a section, got {n}")
-    bad = np.zeros(n, dtype=bool)
+    # the round edges first, against their own fair model (edge_bad_points): the fair fit
+    # below has a knot at every edge point and follows a run there
+    if edges:
+        # the noise the edge model may show on its clean points: that of the flanks about
+        # the fair fit (robust rms), so that an edge that is no circular arc is not judged
+        d0 = fair_fit(P, **fit_options)[2]
+        noise = 1.4826 * float(np.median(d0[~edge_zones(P, EDGE_FRACTION)]))
+        edge_bad, edge_d, feet, judgements = judge_edges(P, threshold, noise)
+    else:
+        edge_bad, edge_d, feet, judgements = np.zeros(n, bool), np.full(n, np.nan), np.full((n, 3), np.nan), []
+    bad = edge_bad.copy()
     for _ in range(max_rounds):
         t = chord_parameters_of_good(P, bad)
         curve, t, d = fair_fit(P, (~bad).astype(float), t=t, **fit_options)
@@ -208,14 +224,32 @@ def detect_bad_points(points: np.ndarray, threshold: float = DEFAULT_THRESHOLD,
                                   f"{threshold * 1000:.1f} µm from a fair curve (median distance "
                                   f"{med * 1000:.1f} µm): the threshold is below this data's noise; "
                                   f"try --fair-threshold {max(5 * med, threshold):.3f}")
-    # take back rejected points that the fit of the good points reaches
+    # take back rejected points that the fit of the good points reaches (not those the edge
+    # model judged: the fit follows every point at the edges, it cannot judge them)
     for _ in range(3):
-        back = bad & (d <= threshold)
+        back = bad & ~edge_bad & (d <= threshold)
         if not back.any():
             break
         bad &= ~back
         curve, t, d = fair_fit(P, (~bad).astype(float), t=chord_parameters_of_good(P, bad), **fit_options)
-    return bad, d, curve, t
+    d = np.where(np.isnan(edge_d), d, edge_d)
+    return bad, d, curve, t, edge_bad, feet, tuple(judgements)
+
+
+def detect_bad_points(points: np.ndarray, threshold: float = DEFAULT_THRESHOLD,
+                      max_rounds: int = 60, name: str = "", edges: bool = True,
+                      **fit_options) -> tuple[np.ndarray, np.ndarray, BSplineCurve, np.ndarray]:
+    """Bad points of a closed, ordered section: farther than ``threshold`` from the fair fit.
+
+    Worst-first rejection (module docstring); with ``edges`` the points within
+    :data:`~bladerecon.core.sections.edge_bad_points.EDGE_FRACTION` of the chord from either
+    end are judged first against a circular-arc edge model tangent to the flanks
+    (:func:`~bladerecon.core.sections.edge_bad_points.judge_edges`; an edge that is not such
+    an arc is left to the fair fit). Returns ``(bad (n,) bool, distance (n,) mm, fair curve,
+    t)``; the distances are those of every original point to the final fit of the good
+    points (to the edge model in the judged edge zones).
+    """
+    return _detect(points, threshold, max_rounds, name, edges, **fit_options)[:4]
 
 
 def bad_runs(bad: np.ndarray) -> list[tuple[int, int]]:
@@ -289,14 +323,17 @@ def fair_section(points: np.ndarray, threshold: float = DEFAULT_THRESHOLD,
     not what the fairing assumes; remove it or raise the limit knowingly.
     """
     P = np.asarray(points, float)
-    bad, d, curve, t = detect_bad_points(P, threshold, name=name, **fit_options)
+    bad, d, curve, t, edge_bad, feet, judgements = _detect(P, threshold, name=name, **fit_options)
     faired = replace_runs(P, bad, curve, t) if bad.any() else P.copy()
+    # a run the edge model found goes back onto that model: the fair fit has a knot at every
+    # edge point and bridges the gap the run leaves by its strain energy alone
+    faired[edge_bad] = feet[edge_bad]
     disp = np.linalg.norm(faired - P, axis=1)
     where = f"section {name}, " if name else ""
-    if bad.any():
+    if (bad & ~edge_bad).any():
         # the auxiliary cubics must agree with the fair fit of the good points; where the
         # points around a run are too sparse they do not, and the fairing says so
-        idx = np.flatnonzero(bad)
+        idx = np.flatnonzero(bad & ~edge_bad)
         tb = refine_curve_parameters(curve, faired[idx], t[idx], iterations=6)
         stray = np.linalg.norm(evaluate_curve(curve, tb) - faired[idx], axis=1)
         if stray.max() > AUX_AGREEMENT * threshold:
@@ -310,4 +347,31 @@ def fair_section(points: np.ndarray, threshold: float = DEFAULT_THRESHOLD,
         raise BladeReconError(
             f"fairing refused: {where}point {i} would move {disp[i]:.4f} mm (limit {max_move} mm); "
             "remove that point or raise --fair-limit")
-    return SectionFairing(P, faired, bad, disp, d, tuple(bad_runs(bad)))
+    return SectionFairing(P, faired, bad, disp, d, tuple(bad_runs(bad)), edge_bad, judgements)
+
+
+def describe_runs(points: np.ndarray, bad: np.ndarray, displacement: np.ndarray,
+                  lines: np.ndarray | None = None) -> list[dict]:
+    """Where each run of bad points of one closed, ordered section is: its first and last
+    line (or index), number of points, the chord fraction of its first and last point and
+    its largest displacement (mm).
+
+    The chord fraction is measured along the section's principal direction, 0 at the end
+    nearer the section's first point (the reconstruction's leading edge when the points
+    start there) and 1 at the other end.
+    """
+    P = np.asarray(points, float)
+    n = P.shape[0]
+    lines = np.arange(n) if lines is None else np.asarray(lines)
+    c = P - P.mean(axis=0)
+    x = c @ np.linalg.svd(c, full_matrices=False)[2][0]
+    x = (x - x.min()) / max(np.ptp(x), 1e-300)
+    if x[0] > 0.5:
+        x = 1.0 - x
+    out = []
+    for first, k in bad_runs(bad):
+        idx = (first + np.arange(k)) % n
+        out.append({"first_line": int(lines[idx[0]]), "last_line": int(lines[idx[-1]]), "points": int(k),
+                    "chord_fraction": [round(float(x[idx[0]]), 4), round(float(x[idx[-1]]), 4)],
+                    "displacement_mm": round(float(np.max(displacement[idx])), 6)})
+    return out
