@@ -13,8 +13,11 @@ Writes ``bench/results/measured_data.md`` and ``.json``. Read times: ``bench_rea
 2. **Probe-radius compensation**: ball centres of radius R touching the profile at the plan
    points, compensated with ``--probe-radius R``: largest distance of the compensated points
    to the true profile, µm, by radius and plan density.
-3. **Bad points**: runs of 1-5 points displaced along the profile normal on clean 400-point
-   sections (threshold 3 µm), found / missed / clean points flagged, by position on the chord.
+3. **Bad points**: runs of 1-5 points displaced along the profile normal at the LE, the TE
+   and on the flanks of 400-point sections (even and random spacing; clean at 3 µm, 2 µm
+   noise at 8 µm = 4 sigma), found / partly found / clean points flagged, by position on the
+   chord, before (fair fit alone) and after the edge model. ``--fairing-only`` recomputes
+   this table alone and keeps tables 1-2 from the last full run.
 """
 from __future__ import annotations
 
@@ -41,8 +44,7 @@ from bladerecon.core.reconstruct import reconstruct  # noqa: E402
 from bladerecon.core.sections.fairing import detect_bad_points  # noqa: E402
 from bladerecon.core.sections.ordering import build_sections  # noqa: E402
 from bladerecon.core.surface.compensation import compensate_sections  # noqa: E402
-from bladerecon.samples.blade import (SampleBlade, nominal_grid, sample_sections, section_heights,  # noqa: E402
-                                      t_at_length_fraction)
+from bladerecon.samples.blade import SampleBlade, nominal_grid, sample_sections  # noqa: E402
 from test_compensation import ball_centres  # noqa: E402  (the tests' own simulation)
 from test_noisy_sections import random_spacing  # noqa: E402
 from test_repeated_points import plan_with_repeats  # noqa: E402
@@ -99,40 +101,67 @@ def compensation_table() -> list[dict]:
     return rows
 
 
-def _in_plane_normal(h, t):
-    n = BLADE.normal(h, t)
-    n = n - np.outer(n[:, 2], [0.0, 0.0, 1.0])
-    return n / np.linalg.norm(n, axis=1)[:, None]
+BANDS = (("LE, chord 0-0.03", 0.0, 0.03), ("flanks, chord 0.03-0.97", 0.03, 0.97), ("TE, chord 0.97-1", 0.97, 1.0))
+FAIR_CASES = (("no noise", 0.0, 0.003, (0.010, 0.015, 0.030)), ("2 µm noise", 0.002, 0.008, (0.015, 0.030)))
+
+
+def _band(chord: float) -> str:
+    return next(name for name, lo, hi in BANDS if chord <= hi or hi == 1.0)
 
 
 def fairing_table() -> list[dict]:
-    cases = [(0.0, 1, 0.010), (0.01, 5, 0.030), (0.02, 2, 0.025), (0.3, 1, 0.010), (0.5, 3, 0.010),
-             (0.85, 4, 0.015), (0.99, 1, 0.010), (1.0, 2, 0.012)]
+    """Runs of 1-5 points displaced along the true normal at 0-3 % and 97-100 % of the chord
+    (either flank, across the edge's tip too) and one on the flanks, 400-point sections at
+    even and random spacing (the tests' generator, ``tests/test_edge_bad_points.py``), judged
+    by the fair fit alone (before, ``edges=False``) and with the edge model (after). A run is
+    found when all its points are flagged; a point of a run counts for the band of its chord
+    fraction nearest the edge; clean points flagged count by their own chord fraction."""
+    from test_edge_bad_points import section_with_runs, true_chord_fraction
+
     rows = []
-    heights = section_heights(len(cases))
-    for (where, run, disp), h in zip(cases, heights):
-        t = t_at_length_fraction(BLADE, h, (0.37 + np.arange(400)) / 400)
-        P, N = BLADE.point(h, t), _in_plane_normal(h, t)
-        c = P - P.mean(axis=0)
-        x = c @ np.linalg.svd(c, full_matrices=False)[2][0]
-        x = (x - x.min()) / np.ptp(x)
-        idx = (int(np.argmin(np.abs(x - where))) + np.arange(run)) % len(P)
-        Q = P.copy()
-        Q[idx] += disp * N[idx]
-        bad = detect_bad_points(Q, threshold=0.003)[0]
-        rows.append({"chord": where, "run": run, "displacement_um": disp * 1000, "found": int(bad[idx].sum()),
-                     "false": int(bad.sum() - bad[idx].sum())})
-        print(f"chord {where}: {rows[-1]}", flush=True)
+    for label, noise, threshold, disps in FAIR_CASES:
+        tally = {(b, when): {"runs": 0, "found": 0, "partial": 0, "false": 0}
+                 for b, _, _ in BANDS for when in ("before", "after")}
+        for h in (0.0, 0.5, 1.0):
+            for seed in (11, 12, 13, 14):
+                for spacing in ("even", "random"):
+                    P, injected, runs = section_with_runs(h, seed, spacing=spacing, noise=noise, displacements=disps)
+                    chord = true_chord_fraction(h, P)
+                    for when, edges in (("before", False), ("after", True)):
+                        try:
+                            bad = detect_bad_points(P, threshold, edges=edges)[0]
+                        except BladeReconError:
+                            bad = np.zeros(len(P), bool)       # refused: nothing found
+                        for r in runs:
+                            c = r["chord"]
+                            t = tally[(_band(float(c[np.argmin(np.minimum(c, 1.0 - c))])), when)]
+                            k = int(bad[r["first"]:r["last"] + 1].sum())
+                            t["runs"] += 1
+                            t["found"] += k == r["length"]
+                            t["partial"] += 0 < k < r["length"]
+                        for i in np.flatnonzero(bad & ~injected):
+                            tally[(_band(float(chord[i])), when)]["false"] += 1
+            print(f"fairing {label}: {tally}", flush=True)
+        for (b, when), t in tally.items():
+            rows.append({"data": label, "threshold_mm": threshold, "band": b, "when": when, **t})
     return rows
 
 
 def main() -> None:
     stamp = dt.datetime.now(dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
-    methods, comp, fair = method_table(), compensation_table(), fairing_table()
+    if "--fairing-only" in sys.argv[1:] and (RESULTS / "measured_data.json").exists():
+        # tables 1-2 kept from the last full run (their own stamp stays in the JSON)
+        old = json.loads((RESULTS / "measured_data.json").read_text())
+        methods, comp, fair = old["methods"], old["compensation"], fairing_table()
+        kept = old.get("tables_1_2_when", old["when"])
+    else:
+        methods, comp, fair = method_table(), compensation_table(), fairing_table()
+        kept = stamp
     RESULTS.mkdir(exist_ok=True)
     um = lambda v: f"{v * 1000:.1f}"  # noqa: E731
     md = [f"Measured data as it comes (issue 16), {stamp}, {os.cpu_count()} CPUs, {platform.machine()}; "
-          "analytic sample blade, true surface known.\n",
+          "analytic sample blade, true surface known."
+          + (f" Tables 1-2 from the run of {kept}." if kept != stamp else "") + "\n",
           "### 1. Method choice: distance of the true surface to the reconstruction, max / mean (µm)\n",
           "| data | auto (chosen) | interpolate | approximate | auto vs the better |",
           "|---|---|---|---|---|"]
@@ -147,14 +176,21 @@ def main() -> None:
         cells = [f"{r['max_um']:.1f}" if r["max_um"] is not None else "refused (ball larger than the path's radius)"
                  for r in comp if r["radius"] == radius]
         md.append(f"| {radius} | " + " | ".join(cells) + " |")
-    md += ["", "### 3. Bad points: runs displaced along the normal on clean 400-point sections (threshold 3 µm)\n",
-           "| chord position | run (points) | displacement (µm) | found | clean points flagged |", "|---|---|---|---|---|"]
-    for r in fair:
-        md.append(f"| {r['chord']:.2f} | {r['run']} | {r['displacement_um']:.0f} | {r['found']} of {r['run']} | "
-                  f"{r['false']} |")
+    md += ["", "### 3. Bad points by chord position: runs of 1-5 points displaced along the true normal, "
+               "400-point sections (3 heights x 4 seeds x even/random spacing, one run at each edge and one on "
+               "the flanks); before = the fair fit alone, after = with the LE/TE edge model\n",
+           "| data (threshold) | chord position | runs | found before | found after | partly found before / after "
+           "| clean points flagged before / after |", "|---|---|---|---|---|---|---|"]
+    for label, _, threshold, disps in FAIR_CASES:
+        for b, _, _ in BANDS:
+            bf = next(r for r in fair if r["data"] == label and r["band"] == b and r["when"] == "before")
+            af = next(r for r in fair if r["data"] == label and r["band"] == b and r["when"] == "after")
+            md.append(f"| {label}, runs of {'/'.join(f'{d * 1000:.0f}' for d in disps)} µm "
+                      f"({threshold * 1000:.0f} µm) | {b} | {af['runs']} | {bf['found']} | {af['found']} | "
+                      f"{bf['partial']} / {af['partial']} | {bf['false']} / {af['false']} |")
     (RESULTS / "measured_data.md").write_text("\n".join(md) + "\n")
     (RESULTS / "measured_data.json").write_text(json.dumps({"when": stamp, "methods": methods, "compensation": comp,
-                                                            "fairing": fair}, indent=1))
+                                                            "fairing": fair, "tables_1_2_when": kept}, indent=1))
     print(f"wrote {RESULTS / 'measured_data.md'}")
 
 
