@@ -270,7 +270,7 @@ def judge_edge(q: np.ndarray, index: np.ndarray, end: int, sense: float, thresho
     clean neighbours keeps them). A run cannot hide by pulling the model: the model that
     judges it never saw it. One run per edge (``max_runs``); the edge is then judged only if
     the rest fits as a fair circular edge (:func:`_constant_curvature`, the rms, a radius
-    smaller than half the zone's width, at least one good arc point); otherwise it is not
+    smaller than half the zone's width, at least two good arc points); otherwise it is not
     judged and nothing in it is flagged.
     """
     z = q[index]
@@ -326,7 +326,7 @@ def judge_edge(q: np.ndarray, index: np.ndarray, end: int, sense: float, thresho
     d = np.abs(res)
     arc_good = int(((piece == 1) & ~bad).sum())
     rms = float(np.sqrt(np.mean(d[~bad] ** 2)))
-    if (d[~bad].max() > threshold or rms > floor or arc_good < 1 or not 0 < g[2] < 0.5 * np.ptp(z[:, 1])
+    if (d[~bad].max() > threshold or rms > floor or arc_good < 2 or not 0 < g[2] < 0.5 * np.ptp(z[:, 1])
             or not _constant_curvature(z, (piece == 1) & ~bad, g[2], noise)):
         return EdgeJudgement(end, index, np.zeros(m, bool), d, foot, float("nan"), False,
                              f"the edge is not a circular arc within {threshold * 1000:.1f} µm "

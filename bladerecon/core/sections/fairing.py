@@ -210,13 +210,16 @@ def _detect(points: np.ndarray, threshold: float = DEFAULT_THRESHOLD, max_rounds
     else:
         edge_bad, edge_d, feet, judgements = np.zeros(n, bool), np.full(n, np.nan), np.full((n, 3), np.nan), []
     bad = edge_bad.copy()
+    # in a judged edge zone the edge model is the judge: the fair fit, which bridges an edge
+    # run by its strain energy alone, would flag the run's clean neighbours
+    free = np.isnan(edge_d)
     for _ in range(max_rounds):
         t = chord_parameters_of_good(P, bad)
         curve, t, d = fair_fit(P, (~bad).astype(float), t=t, **fit_options)
-        worst = d[~bad].max()
+        worst = d[~bad & free].max()
         if worst <= threshold:
             break
-        bad |= (~bad) & (d > max(threshold, 0.5 * worst))
+        bad |= (~bad) & free & (d > max(threshold, 0.5 * worst))
         if bad.sum() > 0.25 * n:
             where = f"section {name}: " if name else ""
             med = float(np.median(d))
