@@ -296,3 +296,46 @@ def test_repair_progress_shows_an_input_name_escaped(capfd, data, out):
     assert run_in_process(["repair", measured, "--nominal", data / "text.step", "-o", out / "r.step"]) == 2
     err = capfd.readouterr().err
     assert "\x1b" not in err and "reading" in err and "r\\x1b[31mX.csv" in err, err
+
+
+# --------------------------------------------------------------------------- plausibility
+def _plan_rows(tmp_path, name: str, change) -> Path:
+    """The sample's 65-point plan with ``change(section, x, y, z, mean z of that section)``
+    applied to each row, written as ``name``."""
+    lines = (SAMPLE / "measured_plan.csv").read_text().splitlines()
+    rows = [ln.split(",") for ln in lines[1:]]
+    z = {}
+    for r in rows:
+        z.setdefault(r[0], []).append(float(r[3]))
+    mean = {k: sum(v) / len(v) for k, v in z.items()}
+    out = [lines[0]] + [",".join(change(r[0], float(r[1]), float(r[2]), float(r[3]), mean, i))
+                        for i, r in enumerate(rows)]
+    path = tmp_path / name
+    path.write_text("\n".join(out) + "\n")
+    return path
+
+
+@pytest.mark.parametrize("command", ["reconstruct", "sections"])
+def test_two_sections_at_one_height_are_refused(capfd, tmp_path, command):
+    """Section '2' moved onto section '1''s plane (two profiles at one height): reconstruct
+    wrote a folded STEP and sections measured both, exit 0. Now one line naming both."""
+    def same_height(s, x, y, z, mean, i):
+        return [s, f"{x:.6f}", f"{y:.6f}", f"{z - mean['2'] + mean['1'] if s == '2' else z:.6f}"]
+
+    path = _plan_rows(tmp_path, "samez.csv", same_height)
+    outs = tmp_path / "o"
+    outs.mkdir()
+    argv = [command, path, "--quiet"] + (["-o", outs / "x.step"] if command == "reconstruct" else ["--lenient"])
+    line = refused(capfd, argv, (tmp_path,))
+    assert "sections '1' (lines 67–131) and '2' (lines 132–196) lie at one span position" in line, line
+
+
+def test_a_collinear_section_is_said_to_lie_on_a_line_not_to_cross(capfd, tmp_path):
+    """A section whose points lie on a line was reported as crossing its neighbour (its
+    plane is undefined); the one-line message now says what is wrong with it."""
+    def on_a_line(s, x, y, z, mean, i):
+        return [s, f"{i * 0.1:.6f}" if s == "1" else f"{x:.6f}", "0.000000" if s == "1" else f"{y:.6f}", f"{z:.6f}"]
+
+    path = _plan_rows(tmp_path, "line.csv", on_a_line)
+    line = refused(capfd, ["reconstruct", path, "-o", tmp_path / "x.step", "--quiet"], (tmp_path,))
+    assert "section '1' (lines 67–131) has no area" in line and "lie on a line" in line and "cross" not in line, line

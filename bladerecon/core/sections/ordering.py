@@ -218,6 +218,8 @@ def _check_no_crossing(src: str, groups: list, span_axis: np.ndarray) -> None:
     plane of the section before it, nor on the tip side of the plane of the section after
     it, beyond 3 x the planes' rms out-of-plane + 1 µm (noise, stream-surface sections). A
     surface lofted through crossing sections folds over itself (issue 23 §6)."""
+    for name, pts, lines in groups:     # a section on a line has no plane to judge by
+        _check_not_on_a_line(src, name, pts, lines, span_axis)
     planes = [_plane(pts, span_axis) for _, pts, _ in groups]
     for k in range(len(groups) - 1):
         (na, pa, la), (nb, pb, lb) = groups[k], groups[k + 1]
@@ -226,6 +228,16 @@ def _check_no_crossing(src: str, groups: list, span_axis: np.ndarray) -> None:
         below = (pb - ca) @ ua              # section b's points over a's plane
         above = (pa - cb) @ ub              # section a's points over b's plane
         j, i = int(np.argmin(below)), int(np.argmax(above))
+        # two profiles at one height (the loft folds between them): b's mean height over a's
+        # plane no larger than its own uncertainty (3 standard errors) + 1 µm; curved (stream
+        # surface, cylinder) sections have a large spread but a mean height of the spacing
+        apart = float(below.mean())
+        if apart <= 3.0 * float(below.std()) / np.sqrt(len(below)) + 0.001:
+            raise BladeReconError(
+                f"{src}: sections '{na}' (lines {int(la.min())}–{int(la.max())}) and '{nb}' (lines "
+                f"{int(lb.min())}–{int(lb.max())}) lie at one span position ({apart:.4f} mm apart): a "
+                "surface through them would fold: give each section its own height, or one label to "
+                "the points of one section")
         if below[j] < -tol:
             what = f"section '{nb}' (line {int(lb[j])}) reaches {-below[j]:.3f} mm below the plane of section '{na}'"
         elif above[i] > tol:
@@ -234,6 +246,21 @@ def _check_no_crossing(src: str, groups: list, span_axis: np.ndarray) -> None:
             continue
         raise BladeReconError(f"{src}: sections '{na}' and '{nb}' cross: {what}; a surface through them "
                               "would fold: check the section labels and planes")
+
+
+def _check_not_on_a_line(src: str, name: str, pts: np.ndarray, lines: np.ndarray, span_axis: np.ndarray) -> None:
+    """A section whose points lie on a line (in the plane normal to the span, a spread across
+    it under a thousandth of its length): the one-line error of :func:`_loop_order`, before
+    the crossing check would blame its (undefined) plane."""
+    q = pts - pts.mean(axis=0)
+    q = q - np.outer(q @ span_axis, span_axis)
+    sv = np.linalg.svd(q, compute_uv=False)
+    # across the line a thousandth of its length (a blade's thickness is a few per cent of
+    # its chord; a measured line is off its straight line only by the noise)
+    if len(sv) < 2 or sv[1] <= max(1e-3 * sv[0], POINT_TOL * np.sqrt(len(pts))):
+        raise BladeReconError(
+            f"{src}: section '{name}' (lines {lines.min()}–{lines.max()}) has no area in the "
+            "plane normal to the span axis: its points lie on a line; check the section data")
 
 
 def _increasing_run(t: np.ndarray) -> list[int]:
