@@ -193,8 +193,10 @@ def test_a_lots_budget_is_shared_by_its_workers(tmp_path):
                         NOMINAL, "-o", str(out), "--workers", "2", "--memory-limit", "0.6", "--json"],
                        capture_output=True, text=True, env=ENV, timeout=300)
     assert r.returncode == 2 and "Traceback" not in r.stderr, r.stderr
-    lot = json.loads((out / "lot" / "lot.json").read_text())
-    blades = lot["blades"]
-    assert len(blades) == 2 and all(b["status"] == "error" for b in blades), blades
-    for b in blades:
-        assert "needs about 0.4" in b["error"] and "budget of 0.30 GB" in b["error"], b["error"]
+    # every blade failed: no lot summary is written (nothing there would be a result); the
+    # --json summary and the one line say why, per blade
+    assert "all 2 blades failed, nothing was written" in r.stderr and not out.exists()
+    errors = json.loads(r.stdout)["errors"]
+    assert len(errors) == 2, errors
+    for e in errors.values():
+        assert "needs about 0.4" in e and "budget of 0.30 GB" in e, e
