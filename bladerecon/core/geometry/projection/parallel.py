@@ -58,25 +58,32 @@ _GUI_MODULES = ("FreeCADGui", "PySide", "PySide2", "PySide6", "PyQt5", "PyQt6", 
 
 def _fork_blocks(groups: list[list[tuple[int, int]]], work) -> None:
     """Run the first group of blocks here and each other group in a forked child; a child
-    that fails (or cannot be forked) has its blocks run here afterwards."""
+    that fails (or cannot be forked) has its blocks run here afterwards.
+
+    Ctrl-C and SIGTERM are held from each fork until its child is on the list of those to
+    stop: arriving in between, they would leave that child running on after the command."""
     children = []
-    for group in groups[1:]:
-        try:
-            pid = os.fork()
-        except OSError:
-            children.append((None, group))
-            continue
-        if pid == 0:                                   # the child: its blocks, then leave at once
-            code = 1
-            try:
-                for s, e in group:
-                    work(s, e, 1)
-                code = 0
-            finally:
-                os._exit(code)
-        children.append((pid, group))
-    waiting = {pid for pid, _ in children if pid is not None}
+    waiting: set[int] = set()
     try:
+        for group in groups[1:]:
+            mask = signal.pthread_sigmask(signal.SIG_BLOCK, _STOP_SIGNALS)
+            try:
+                pid = os.fork()
+            except OSError:
+                pid = None
+            if pid == 0:                               # the child: its blocks, then leave at once
+                signal.pthread_sigmask(signal.SIG_SETMASK, mask)
+                code = 1
+                try:
+                    for s, e in group:
+                        work(s, e, 1)
+                    code = 0
+                finally:
+                    os._exit(code)
+            children.append((pid, group))
+            if pid is not None:
+                waiting.add(pid)
+            signal.pthread_sigmask(signal.SIG_SETMASK, mask)     # a held signal arrives here
         for s, e in groups[0]:
             work(s, e, 1)
         for pid, group in children:
@@ -93,6 +100,9 @@ def _fork_blocks(groups: list[list[tuple[int, int]]], work) -> None:
             except OSError:
                 pass
         raise
+
+
+_STOP_SIGNALS = {signal.SIGINT, signal.SIGTERM}
 
 
 def _shared(shape: tuple[int, ...], dtype=float) -> np.ndarray:
