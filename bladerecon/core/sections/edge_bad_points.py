@@ -265,8 +265,9 @@ def judge_edge(q: np.ndarray, index: np.ndarray, end: int, sense: float, thresho
     fitted to all of them, or their rms exceeds what a fair edge leaves (a sixth of the
     threshold, or ``NOISE_FACTOR`` times the flanks' ``noise``), every run of 1..``longest``
     consecutive points within ``reach`` of the worst point is left out in turn and the model
-    refitted without it; the run kept is the one that leaves the smallest sum of squares, and
-    of it only the points the refitted model does not reach are bad (a run left out with
+    refitted without it; the run kept is the shortest that leaves about the smallest sum of
+    squares (within the threshold squared), and of it only the points the refitted model
+    does not reach are bad (a run left out with
     clean neighbours keeps them). A run cannot hide by pulling the model: the model that
     judges it never saw it. One run per edge (``max_runs``); the edge is then judged only if
     the rest fits as a fair circular edge (:func:`_constant_curvature`, the rms, a radius
@@ -302,15 +303,18 @@ def judge_edge(q: np.ndarray, index: np.ndarray, end: int, sense: float, thresho
             break
         # the few best left-out runs again from fresh starts: the model the run pulled may sit
         # in a basin the refit without the run does not leave
-        best = None
+        refined = []
         for _, first, k, g2 in sorted(trials, key=lambda r: r[0])[:FRESH_STARTS]:
             w2 = w.copy()
             w2[first:first + k] = 0.0
-            for cand in (g2, _start(z, w2, sense, tip, 0.5 * threshold)):
-                c = _cost(z, w2, cand, sense, tip)
-                if best is None or c < best[0]:
-                    best = (c, first, k, cand)
-        _, first, k, g2 = best
+            fits = [(_cost(z, w2, cand, sense, tip), cand) for cand in (g2, _start(z, w2, sense, tip, 0.5 * threshold))]
+            c, cand = min(fits, key=lambda f: f[0])
+            refined.append((c, first, k, cand))
+        # the shortest run that fits the rest about as well as the best: leaving out a clean
+        # neighbour as well lowers the sum of squares by its noise, a bad point by more than
+        # the threshold squared
+        lowest = min(r[0] for r in refined)
+        _, first, k, g2 = min((r for r in refined if r[0] <= lowest + threshold ** 2), key=lambda r: (r[2], r[0]))
         w2 = w.copy()
         w2[first:first + k] = 0.0
         d2 = np.abs(_model(z, w2, g2, sense, tip))
