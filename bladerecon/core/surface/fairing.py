@@ -134,7 +134,9 @@ def fair_grid_alternating(grid: np.ndarray, threshold: float = DEFAULT_THRESHOLD
                 rv += int(bad.sum())
                 changed += int(bad.sum())
         for j in range(S):
-            bad, _, curve, t = detect_bad_points(G[j], threshold)
+            # the fair fit alone: runs it flags are replaced from it (replace_runs), and the
+            # edge model's verdicts, replaced from the fair curve, would never settle
+            bad, _, curve, t = detect_bad_points(G[j], threshold, edges=False)
             if bad.any():
                 G[j] = replace_runs(G[j], bad, curve, t)
                 ru += int(bad.sum())
