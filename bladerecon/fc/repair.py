@@ -111,7 +111,9 @@ def missing_shape(result) -> Any:
         v_cut = float(np.interp(g["cut_mm"], g["z_rows"], g["v_rows"])) if len(g["z_rows"]) > 1 else 0.0
         pieces.append(tip_missing_shape(result.adapted, v_cut))
     pieces += region_missing_shapes(result)
-    return Part.makeCompound(pieces) if pieces else None
+    from bladerecon.fc.convert import compound       # not Part.makeCompound: it kills FreeCAD 1.0 headless
+
+    return compound(pieces) if pieces else None
 
 
 # --------------------------------------------------------------------------- document object
