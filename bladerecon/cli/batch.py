@@ -28,7 +28,7 @@ import time
 
 from bladerecon.core.errors import BladeReconError
 from bladerecon.core.io.outputs import (Outputs, check_input, count, escaped, one_line_errors, os_error, positive,
-                                        shown, signals_held)
+                                        shown)
 
 __all__ = ["add_parser", "add_lot_options", "run_batch", "run_blade", "run_lot", "read_plan_limits"]
 
@@ -249,8 +249,7 @@ def _position(job: dict) -> dict:
     key = (job["nominal"], _inputs(job)["nominal_sha256"])
     if key not in _NOMINALS:
         _NOMINALS.clear()
-        with signals_held():            # OCC's STEP reader must not be interrupted
-            _NOMINALS[key] = load_nominal(job["nominal"])
+        _NOMINALS[key] = load_nominal(job["nominal"])
     nominal = _NOMINALS[key]
     points, _, _ = _read_measured(job["file"])
     axis = np.asarray(job["position"]["axis"], float)

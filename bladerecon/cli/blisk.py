@@ -43,9 +43,7 @@ def _blade0_angle(nominal: str, axis: np.ndarray) -> float:
     from bladerecon.core.lot.blisk import point_angles
     from bladerecon.fc.export import read_shape
 
-    from bladerecon.core.io.outputs import signals_held
-    with signals_held():                # OCC's STEP reader must not be interrupted
-        box = read_shape(nominal).BoundBox
+    box = read_shape(nominal).BoundBox
     return float(point_angles(np.array([[box.Center.x, box.Center.y, box.Center.z]]), axis)[0])
 
 

@@ -17,8 +17,7 @@ import time
 import numpy as np
 
 from bladerecon.core.errors import BladeReconError
-from bladerecon.core.io.outputs import (Outputs, check_coordinates, check_input, escaped, one_line_errors, positive,
-                                        signals_held)
+from bladerecon.core.io.outputs import (Outputs, check_coordinates, check_input, escaped, one_line_errors, positive)
 
 __all__ = ["add_parser", "run_deviation"]
 
@@ -144,8 +143,7 @@ def _run(args: argparse.Namespace, temps: dict) -> dict:
         check_file("deviation", args.measured, getattr(args, "memory_limit", None))   # before it is read
         points, section, names, lines = _read_measured_lines(args.measured, getattr(args, "memory_limit", None))
     _say(args, f"{len(points)} points; reading nominal {args.nominal}")
-    with signals_held():                # OCC's STEP reader must not be interrupted
-        nominal = load_nominal(args.nominal)
+    nominal = load_nominal(args.nominal)
     from bladerecon.fc.deviation import blade_like_warning
     nominal_warning = blade_like_warning(nominal)
     if nominal_warning:         # a warning, not a refusal: a user may compare with any shape on purpose
@@ -309,8 +307,7 @@ def _surface_points(path: str):
     from bladerecon.fc.convert import from_part_surface
     from bladerecon.fc.export import read_shape
 
-    with signals_held():
-        shape = read_shape(path)
+    shape = read_shape(path)
     faces = [f for f in shape.Faces if type(f.Surface).__name__ == "BSplineSurface"]
     if len(faces) != 1:
         raise BladeReconError(f"{path}: expected one B-spline face (a reconstructed blade surface), "

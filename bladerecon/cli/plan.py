@@ -19,7 +19,7 @@ import numpy as np
 
 from bladerecon.core.errors import BladeReconError
 from bladerecon.core.io.outputs import (Outputs, check_coordinates, check_input, check_samples, escaped,
-                                        one_line_errors, positive, shown, signals_held)
+                                        one_line_errors, positive, shown)
 
 __all__ = ["add_parser", "run_plan"]
 
@@ -76,8 +76,7 @@ def _dense_sections(args, axis: np.ndarray, heights: np.ndarray) -> tuple[list[n
             raise BladeReconError("a shape nominal needs --heights z1,z2,... (mm along --axis) to cut sections")
         from bladerecon.fc.export import read_shape
         from bladerecon.fc.slicing import cut_sections
-        with signals_held():            # OCC's STEP reader must not be interrupted
-            shape = read_shape(args.nominal)
+        shape = read_shape(args.nominal)
         bb = shape.BoundBox
         centre = np.array([bb.Center.x, bb.Center.y, bb.Center.z])
         size = np.array([bb.XLength, bb.YLength, bb.ZLength])

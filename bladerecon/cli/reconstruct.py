@@ -91,9 +91,7 @@ def _check_units(measured: np.ndarray, on_points: np.ndarray, args: argparse.Nam
     extent = float(np.linalg.norm(np.ptp(measured, axis=0))) if len(measured) else 0.0
     if median <= 0.01 * extent:        # the usual case, decided without reading the nominal again
         return
-    from bladerecon.core.io.outputs import signals_held
-    with signals_held():                # OCC's STEP reader must not be interrupted
-        shape = read_shape(args.nominal)
+    shape = read_shape(args.nominal)
     box = shape.BoundBox
     size = float(np.sqrt(box.XLength ** 2 + box.YLength ** 2 + box.ZLength ** 2))
     if median > 0.01 * size:

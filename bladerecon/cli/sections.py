@@ -18,7 +18,7 @@ import numpy as np
 
 from bladerecon.core.errors import BladeReconError
 from bladerecon.core.io.outputs import (Outputs, check_coordinates, check_input, check_samples, escaped,
-                                        finite, one_line_errors, positive, shown, signals_held)
+                                        finite, one_line_errors, positive, shown)
 
 __all__ = ["add_parser", "run_sections", "flow_direction"]
 
@@ -152,8 +152,7 @@ def _nominal_sections(args, section_points, span_axis) -> list[np.ndarray]:
         check_samples("--step", args.step, length, what="cutting the nominal")
         origins = np.array([f.origin for f in frames])
         normals = np.array([f.normal for f in frames])
-        with signals_held():            # it reads the STEP file
-            return cut_sections(args.nominal, origins, normals, args.step)
+        return cut_sections(args.nominal, origins, normals, args.step)
     pts, _, _ = _read_sections(args.nominal)
     if len(pts) == len(frames):
         return pts
@@ -252,8 +251,7 @@ def _nominal_warning(args) -> None:
         return
     from bladerecon.fc.deviation import blade_like_warning, load_nominal
 
-    with signals_held():                # OCC's STEP reader must not be interrupted
-        nominal = load_nominal(args.nominal)
+    nominal = load_nominal(args.nominal)
     warning = blade_like_warning(nominal)
     if warning:
         print(f"bladerecon: warning: {escaped(warning)}", file=sys.stderr, flush=True)

@@ -15,7 +15,8 @@ import numpy as np
 
 from bladerecon.core.geometry.bspline import evaluate_surface
 from bladerecon.core.errors import BladeReconError
-from bladerecon.core.io.outputs import check_file_target, check_input, os_error_message, shown, write_problem
+from bladerecon.core.io.outputs import (check_file_target, check_input, os_error_message, shown, signals_held,
+                                        write_problem)
 from bladerecon.core.geometry.spline import BSplineSurface
 from bladerecon.core.tolerances import PLANAR_TOL
 
@@ -291,12 +292,13 @@ def read_shape(path: str | os.PathLike) -> Any:
     if os.path.getsize(path) == 0:
         raise BladeReconError(f"cannot read {path}: the file is empty")
     try:
-        if suffix == ".fcstd":
-            shape = _read_fcstd(path)
-        else:
-            with stdout_to_stderr():
-                shape = Part.Shape()
-                shape.read(path)
+        with signals_held():            # interrupted, OCC's reader threads crash: Ctrl-C comes after
+            if suffix == ".fcstd":
+                shape = _read_fcstd(path)
+            else:
+                with stdout_to_stderr():
+                    shape = Part.Shape()
+                    shape.read(path)
     except Exception as err:  # FreeCAD raises OSError, RuntimeError or its own types
         raise BladeReconError(f"cannot read {path}: {_occ_message(err)}") from None
     if shape.isNull() or not shape.Faces:

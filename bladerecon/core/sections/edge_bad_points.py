@@ -36,6 +36,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import least_squares
 
+from bladerecon.core.sections.parameters import kasa_circle
+
 __all__ = ["EDGE_FRACTION", "EdgeJudgement", "section_plane", "edge_zone", "judge_edge", "judge_edges"]
 
 # The edge model is fitted in the section plane by variable projection: the 5 geometric
@@ -159,12 +161,6 @@ def _model(q, w, g, sense, tip, with_feet=False, energy=None):
     return res
 
 
-def _circle(Q):
-    """Algebraic (Kåsa) circle through the points Q (k, 2): centre, radius."""
-    A = np.column_stack([2 * Q, np.ones(len(Q))])
-    sol = np.linalg.lstsq(A, (Q * Q).sum(axis=1), rcond=None)[0]
-    c = sol[:2]
-    return c, float(np.sqrt(max(sol[2] + c @ c, 1e-12)))
 
 
 def _grown(q, w, lo, hi, tolerance):
@@ -176,11 +172,11 @@ def _grown(q, w, lo, hi, tolerance):
 
     def circle(a, b):
         sel = np.flatnonzero(use[a:b + 1]) + a
-        return (_circle(q[sel]), sel) if sel.size >= 3 else ((None, None), sel)
+        return (kasa_circle(q[sel], 1e-12), sel) if sel.size >= 3 else ((None, None), sel)
 
     (c, r), _ = circle(lo, hi)
     if c is None:
-        c, r = _circle(q[lo:hi + 1])
+        c, r = kasa_circle(q[lo:hi + 1], 1e-12)
     grown = True
     while grown:
         grown = False

@@ -136,6 +136,8 @@ def build_sections(pointset: PointSet, *, min_points: int = 5) -> SectionSet:
                               "more sections")
 
     span_axis = _span_axis(src, groups)
+    for name, pts, lines in groups:     # a section on a line has no plane or loop to judge by
+        _check_not_on_a_line(src, name, pts, lines, span_axis)
     _check_no_crossing(src, groups, span_axis)
     sections = []
     for k, (name, pts, lines) in enumerate(groups):
@@ -218,8 +220,6 @@ def _check_no_crossing(src: str, groups: list, span_axis: np.ndarray) -> None:
     plane of the section before it, nor on the tip side of the plane of the section after
     it, beyond 3 x the planes' rms out-of-plane + 1 µm (noise, stream-surface sections). A
     surface lofted through crossing sections folds over itself (issue 23 §6)."""
-    for name, pts, lines in groups:     # a section on a line has no plane to judge by
-        _check_not_on_a_line(src, name, pts, lines, span_axis)
     planes = [_plane(pts, span_axis) for _, pts, _ in groups]
     for k in range(len(groups) - 1):
         (na, pa, la), (nb, pb, lb) = groups[k], groups[k + 1]
@@ -250,8 +250,8 @@ def _check_no_crossing(src: str, groups: list, span_axis: np.ndarray) -> None:
 
 def _check_not_on_a_line(src: str, name: str, pts: np.ndarray, lines: np.ndarray, span_axis: np.ndarray) -> None:
     """A section whose points lie on a line (in the plane normal to the span, a spread across
-    it under a thousandth of its length): the one-line error of :func:`_loop_order`, before
-    the crossing check would blame its (undefined) plane."""
+    it under a thousandth of its length): one line, before the crossing check would blame its
+    (undefined) plane or the loop ordering its missing area."""
     q = pts - pts.mean(axis=0)
     q = q - np.outer(q @ span_axis, span_axis)
     sv = np.linalg.svd(q, compute_uv=False)
@@ -288,10 +288,6 @@ def _loop_order(src: str, name: str, q: np.ndarray, lines: np.ndarray) -> tuple[
     """
     n = len(q)
     given = np.arange(n)
-    if np.sqrt(np.mean(q[:, 1] ** 2)) <= POINT_TOL:   # no spread across e1 (the principal axis)
-        raise BladeReconError(
-            f"{src}: section '{name}' (lines {lines.min()}–{lines.max()}) has no area in the "
-            "plane normal to the span axis: its points lie on a line; check the section data")
     candidate = _uncross(q, _camber_order(q))
     if _loop_length(q[given]) <= KEEP_ORDER_RATIO * _loop_length(q[candidate]):
         order, reordered = given, False

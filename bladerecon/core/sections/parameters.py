@@ -42,7 +42,7 @@ from bladerecon.core.geometry.bspline import curve_derivatives, evaluate_curve
 from bladerecon.core.errors import BladeReconError
 from bladerecon.core.sections.segmentation import LE, PRESSURE, SUCTION, TE, Segmentation
 
-__all__ = ["SectionParameters", "measure_section", "segment_sections", "fit_circle", "inscribed_circles", "MIN_EDGE_POINTS",
+__all__ = ["SectionParameters", "measure_section", "segment_sections", "fit_circle", "kasa_circle", "inscribed_circles", "MIN_EDGE_POINTS",
            "PARAMETER_KEYS", "compare_with_nominal",
            "LE_RULES", "BladeSegmentation", "canonical_loop", "segment_blade", "stacking", "EdgeCircle"]
 
@@ -103,15 +103,21 @@ class SectionParameters:
         return d
 
 
-def fit_circle(q: np.ndarray) -> tuple[np.ndarray, float, float]:
-    """Least-squares circle through 2D points: Kåsa algebraic fit, then Gauss-Newton on the
-    geometric distances. Returns (centre, radius, rms residual), mm."""
+def kasa_circle(q: np.ndarray, floor: float = 1e-30) -> tuple[np.ndarray, float]:
+    """Algebraic (Kåsa) circle through 2D points q (k, 2): centre and radius (mm), the
+    squared radius held at least ``floor`` (mm²)."""
     q = np.asarray(q, float)
     A = np.column_stack([2 * q, np.ones(len(q))])
-    b = (q ** 2).sum(axis=1)
-    sol = np.linalg.lstsq(A, b, rcond=None)[0]
+    sol = np.linalg.lstsq(A, (q ** 2).sum(axis=1), rcond=None)[0]
     c = sol[:2]
-    r = np.sqrt(max(sol[2] + c @ c, 1e-30))
+    return c, float(np.sqrt(max(sol[2] + c @ c, floor)))
+
+
+def fit_circle(q: np.ndarray) -> tuple[np.ndarray, float, float]:
+    """Least-squares circle through 2D points: Kåsa algebraic fit (:func:`kasa_circle`), then
+    Gauss-Newton on the geometric distances. Returns (centre, radius, rms residual), mm."""
+    q = np.asarray(q, float)
+    c, r = kasa_circle(q)
     for _ in range(30):
         d = q - c
         dist = np.linalg.norm(d, axis=1)
