@@ -124,6 +124,19 @@ def test_sections_missing_volume_with_the_cut_at_the_break(case, sections_result
     assert d[damaged].max() < 0.02
 
 
+@pytest.mark.timeout(240)
+def test_the_tip_solid_starts_at_a_cut_above_the_highest_section(case, sections_cut_result):
+    """With --cut-height above the highest section the tip is counted from the cut; its solid
+    in missing.step must start there too, not at the highest section 0.5 mm lower."""
+    from fc_fixtures import require_freecad
+    require_freecad()
+    from bladerecon.fc.repair import missing_shape
+
+    sd, _ = case
+    tip = missing_shape(sections_cut_result).Solids[0]
+    assert abs(tip.BoundBox.ZMin - sd.cut_z) < 0.1      # the registration tilts the frame by µm over the chord
+
+
 def test_cut_height_far_above_the_measurement_is_refused(case):
     """A cut more than a section spacing above the highest section would take an unmeasured
     band as intact: refused in one line, naming the option."""

@@ -108,7 +108,7 @@ def missing_shape(result) -> Any:
     pieces = []
     if any(r["kind"] == "tip" for r in result.regions):
         g = result.depth_map
-        v_cut = float(np.interp(g["cut_mm"], g["z_rows"], g["v_rows"])) if len(g["z_rows"]) > 1 else 0.0
+        v_cut = float(np.interp(g["cut_mm"], *g["z_to_v"]))      # the cut may lie above the rows
         pieces.append(tip_missing_shape(result.adapted, v_cut))
     pieces += region_missing_shapes(result)
     from bladerecon.fc.convert import compound       # not Part.makeCompound: it kills FreeCAD 1.0 headless

@@ -56,23 +56,12 @@ def _region_box(cells: np.ndarray) -> tuple[int, int, int, int]:
     return int(rows[0]), int(rows[-1] - rows[0] + 1), int(start), width
 
 
-def _rows_to_v(z: np.ndarray, z_rows: np.ndarray, v_rows: np.ndarray) -> np.ndarray:
-    """v at heights z: linear between the rows, extended linearly beyond the end rows."""
-    if len(z_rows) == 1:
-        return np.full_like(z, v_rows[0])
-    v = np.interp(z, z_rows, v_rows)
-    lo, hi = z < z_rows[0], z > z_rows[-1]
-    v[lo] = v_rows[0] + (z[lo] - z_rows[0]) * (v_rows[1] - v_rows[0]) / (z_rows[1] - z_rows[0])
-    v[hi] = v_rows[-1] + (z[hi] - z_rows[-1]) * (v_rows[-1] - v_rows[-2]) / (z_rows[-1] - z_rows[-2])
-    return v
-
-
 def missing_region_grids(result, n_sub: int = 4) -> list[RegionGrids]:
     """Top and floor grids of every non-tip region of a
     :class:`~bladerecon.core.repair.target.RepairResult` (mm, measured frame)."""
     g = result.depth_map
     depth, labels = g["depth"], g["labels"]
-    z_rows, v_rows, u_edges = np.asarray(g["z_rows"]), np.asarray(g["v_rows"]), np.asarray(g["u_edges"])
+    z_rows, u_edges = np.asarray(g["z_rows"]), np.asarray(g["u_edges"])
     n_rows, n_bins = depth.shape
     u0, u1 = float(u_edges[0]), float(u_edges[-1])
     du = (u1 - u0) / n_bins
@@ -107,7 +96,7 @@ def missing_region_grids(result, n_sub: int = 4) -> list[RegionGrids]:
         u = u0 + np.mod(bins * du, u1 - u0)
         if nb == n_bins:
             u[-1] = u[0]                                 # a band all round: closed in u
-        v = _rows_to_v(zs, z_rows, v_rows)
+        v = np.interp(zs, *g["z_to_v"])                  # the nominal's v at each height
         uu, vv = np.meshgrid(u, v)                        # (rows, columns)
         S, Su, Sv = surface_derivatives_fast(surface, uu.ravel(), vv.ravel())[:3]
         n = result.sign * np.cross(Su, Sv)

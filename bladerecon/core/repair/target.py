@@ -408,7 +408,7 @@ def _damage_grid(P, fit, nominal, fld, z_to_v, z_range, tol, cut_height, section
     damaged_area = float(sum(r["area_mm2"] for r in regions))
     return {"regions": regions, "depth": mean, "ds": ds, "point_depth": depth, "damaged": damaged, "labels": labels, "z_rows": z_rows,
             "chord": chord, "u_edges": np.linspace(u0, u1, _U_BINS + 1), "cut_mm": cut, "tip": tip_basis,
-            "region_labels": region_labels,
+            "region_labels": region_labels, "z_to_v": z_to_v,
             "total_area": total_area, "damaged_area": damaged_area, "v_rows": v_rows}
 
 
