@@ -102,8 +102,17 @@ def modal_dialog():
     return d if isinstance(d, W.QDialog) else None
 
 
+def _class_name(w):
+    """Qt's class name of ``w``, or None for a widget Qt deleted after findChildren listed it
+    (a closing dialog's children, under load: 'Internal C++ object already deleted')."""
+    try:
+        return w.metaObject().className()
+    except RuntimeError:
+        return None
+
+
 def task_view():
-    views = [w for w in mw.findChildren(W.QWidget) if w.metaObject().className() == "Gui::TaskView::TaskView"]
+    views = [w for w in mw.findChildren(W.QWidget) if _class_name(w) == "Gui::TaskView::TaskView"]
     shown = [w for w in views if w.isVisible()]
     return (shown or views or [None])[0]
 
