@@ -63,7 +63,8 @@ def signals_held():
     """Ctrl-C and SIGTERM held while the block runs and delivered after it (to the handler that
     was in place). For FreeCAD reading a STEP file: interrupted there, OpenCASCADE's reader
     threads crash on the objects being torn down and the command ends with status 1."""
-    if threading.current_thread() is not threading.main_thread():
+    # in the workbench (FreeCADGui loaded) there is no Ctrl-C to hold and Qt owns the signals
+    if threading.current_thread() is not threading.main_thread() or "FreeCADGui" in sys.modules:
         yield
         return
     got: list[int] = []
