@@ -190,3 +190,105 @@ def test_zebra_depends_only_on_the_reflection_angle_about_the_stripe_axis():
     assert np.allclose(zebra(turned(np.pi / 12), smooth=True), 1.0 - base, atol=1e-9)
     assert np.allclose(zebra(n, view=(0.0, 0.0, -3.0), smooth=True), base, atol=1e-12)
     assert np.array_equal(zebra(n), (base >= 0.5).astype(float))
+
+
+def test_principal_curvatures_and_directions_of_random_second_order_patches_against_numpy_eig():
+    """Any (S_u, S_v, S_uu, S_uv, S_vv) is the 2-jet of some surface: over 2000 random jets (skewed,
+    unequal scales, both branches of the null-vector choice) the principal curvatures and
+    directions must be the eigenpairs of the shape operator I⁻¹ II computed by numpy.linalg.eig
+    (the referee): d lifted as a_u S_u + a_v S_v, parallel up to sign, unit, tangent."""
+    rng = np.random.default_rng(11)
+    m = 2000
+    Su, Sv = rng.normal(size=(m, 3)) * rng.uniform(0.2, 5, (m, 1)), rng.normal(size=(m, 3))
+    Suu, Suv, Svv = (rng.normal(size=(m, 3)) for _ in range(3))
+    c = curvature_from_derivatives(Su, Sv, Suu, Suv, Svv)
+    n = np.cross(Su, Sv)
+    n /= np.linalg.norm(n, axis=1)[:, None]
+    first = np.stack([np.stack([np.sum(Su * Su, 1), np.sum(Su * Sv, 1)], -1),
+                      np.stack([np.sum(Su * Sv, 1), np.sum(Sv * Sv, 1)], -1)], -2)
+    second = -np.stack([np.stack([np.sum(Suu * n, 1), np.sum(Suv * n, 1)], -1),
+                        np.stack([np.sum(Suv * n, 1), np.sum(Svv * n, 1)], -1)], -2)
+    k, vec = np.linalg.eig(np.linalg.solve(first, second))
+    k, vec = k.real, vec.real
+    hi = np.argmax(k, axis=1)
+    rows = np.arange(m)
+    scale = np.abs(k).max(axis=1) + 1e-300
+    # two eigenvalues closer than 1e-6 of their size: the directions are ill-posed, skip those rows
+    distinct = np.abs(k[:, 0] - k[:, 1]) > 1e-6 * scale
+    assert distinct.sum() > 0.99 * m
+    assert np.allclose(c.k1, k[rows, hi], rtol=1e-8, atol=1e-10 * scale.max())
+    assert np.allclose(c.k2, k[rows, 1 - hi], rtol=1e-8, atol=1e-10 * scale.max())
+    for d, col in ((c.dir1, hi), (c.dir2, 1 - hi)):
+        a = vec[rows, :, col]
+        e = a[:, :1] * Su + a[:, 1:] * Sv
+        e /= np.linalg.norm(e, axis=1)[:, None]
+        cos = np.abs(np.sum(d * e, axis=1))
+        assert np.all(cos[distinct] > 1 - 1e-8), np.min(cos[distinct])
+        assert np.allclose(np.linalg.norm(d, axis=1), 1.0, atol=1e-12)
+        assert np.allclose(np.sum(d * n, axis=1), 0.0, atol=1e-12)
+
+
+@pytest.mark.parametrize("R", [4.0, 1000.0])
+def test_at_an_umbilic_the_first_direction_is_s_u(R):
+    """Every direction is principal on a sphere: the documented choice is S_u (unit), at any size
+    (the umbilic test is relative to the first fundamental form: a 1 m sphere in mm has E G ~ 1e12)."""
+    rng = np.random.default_rng(5)
+    th, ph = rng.uniform(0, 2 * np.pi, 100), rng.uniform(-1.2, 1.2, 100)
+    d = sphere_derivatives(R, th, ph)
+    c = curvature_from_derivatives(*d)
+    su = d[0] / np.linalg.norm(d[0], axis=1)[:, None]
+    assert np.allclose(c.dir1, su, atol=1e-9)
+    assert np.allclose(c.dir2, np.cross(c.normal, su), atol=1e-9)
+
+
+def test_curvature_results_are_read_only():
+    """The workbench hands one Curvature to several views: none may change it under the others."""
+    import dataclasses
+
+    c = curvature_from_derivatives(*sphere_derivatives(2.0, np.array([0.3]), np.array([0.2])))
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        c.mean = c.mean * 2
+
+
+def test_section_curvature_sign_on_a_gently_curved_small_section():
+    """The convex/concave sign must come from the direction of C'' against the normal, not its
+    size: the parabola z = a u² with a = 0.01 on [0, 1] has C''·n ≈ 0.02, far below 1."""
+    a = 0.01
+    poles = np.zeros((3, 2, 3))
+    for i, (x, z) in enumerate(((0.0, 0.0), (0.5, 0.0), (1.0, a))):        # a u² on [0, 1]: Bézier
+        for j, y in enumerate((0.0, 1.0)):
+            poles[i, j] = (x, y, z)
+    s = BSplineSurface(poles, np.array([0.0, 1.0]), np.array([3, 3]), np.array([0.0, 1.0]), np.array([2, 2]),
+                       2, 1, False, False)
+    _, pts, kappa, _ = section_curvature(s, 0.5, 21)
+    x = pts[:, 0]
+    assert np.allclose(kappa, -2 * a / (1 + 4 * a * a * x ** 2) ** 1.5, rtol=1e-9)
+
+
+def test_zebra_against_its_closed_form_for_any_view_and_stripe_axis():
+    """The documented picture, computed here from the definition: r = d - 2 (d·n) n, its angle
+    about the unit stripe axis a measured from e1 = a x X̂ (a x Ŷ when |a_x| ≥ 0.9), e2 = a x e1;
+    white where cos(stripes angle) ≥ 0. The phase origin is pinned so that the same part gives the
+    same picture in every version. Inputs need not be unit vectors."""
+    rng = np.random.default_rng(21)
+    n = rng.normal(size=(400, 3))
+    n /= np.linalg.norm(n, axis=1)[:, None]
+    cases = [((0.0, 0.0, -1.0), (0.0, 0.0, 1.0)), ((0.3, -2.0, 0.5), (0.0, 0.0, 3.0)),
+             ((1.0, 0.2, -0.4), (1.2, 0.0, 1.6)), ((0.0, 1.0, 1.0), (2.0, 0.0, 0.0)),
+             ((0.2, 0.1, -1.0), (0.95, 0.31, 0.0))]
+    for view, axis in cases:
+        d = np.array(view) / np.linalg.norm(view)
+        a = np.array(axis) / np.linalg.norm(axis)
+        r = d - 2 * (n @ d)[:, None] * n
+        ref = np.array([0.0, 1.0, 0.0]) if abs(a[0]) >= 0.9 else np.array([1.0, 0.0, 0.0])
+        e1 = np.cross(a, ref)
+        e1 /= np.linalg.norm(e1)
+        e2 = np.cross(a, e1)
+        angle = np.arctan2(r @ e2, r @ e1)
+        want = 0.5 + 0.5 * np.cos(7 * angle)
+        got = zebra(n, view=view, stripe_axis=axis, stripes=7, smooth=True)
+        assert np.allclose(got, want, atol=1e-12), (view, axis)
+    # the default view looks down -z along the default +z stripe axis
+    assert np.allclose(zebra(n, smooth=True), zebra(n, view=(0, 0, -1), stripe_axis=(0, 0, 1), smooth=True))
+    # (with an even band count a reversed view gives the same picture: r turns by π)
+    assert not np.allclose(zebra(n, stripes=7, smooth=True), zebra(n, view=(0, 0, 1), stripes=7, smooth=True))

@@ -27,8 +27,9 @@ VENV = ROOT / ".cache" / "mutation-venv"
 MUTMUT = VENV / "bin" / "mutmut"
 PYTHON = "/usr/bin/python3"
 
-#: name -> (paths to mutate, test files that cover them)
-MODULES: dict[str, tuple[str, str]] = {
+#: name -> (paths to mutate, test files that cover them [, pytest arguments that leave out tests
+#: too slow to run once per mutant: the score is then a lower bound of the whole suite's])
+MODULES: dict[str, tuple[str, ...]] = {
     "projection": ("bladerecon/core/geometry/projection/", "tests/test_projection.py"),
     "alignment": ("bladerecon/core/analysis/alignment.py", "tests/test_alignment.py"),
     "section_curves": ("bladerecon/core/surface/section_curves.py", "tests/test_reconstruct.py"),
@@ -38,6 +39,9 @@ MODULES: dict[str, tuple[str, str]] = {
     "fitting": ("bladerecon/core/geometry/fitting.py", "tests/test_fitting.py tests/test_bspline.py"),
     "surface_analysis": ("bladerecon/core/analysis/surface_analysis.py", "tests/test_surface_analysis.py"),
 }
+#: survivors reviewed as equivalent (no test can tell them apart from the code): matched by the
+#: removed and the added line of the mutant's diff, each with the reason
+EQUIVALENT = ROOT / "tools" / "mutation_equivalent.toml"
 STATUS = {"ok_killed": "killed", "bad_survived": "survived", "bad_timeout": "timeout",
           "ok_suspicious": "suspicious", "skipped": "skipped", "untested": "untested"}
 
@@ -50,11 +54,11 @@ def _venv() -> None:
 
 
 def _run(name: str, repo: Path, log) -> dict:
-    paths, tests = MODULES[name]
+    paths, tests, *extra = MODULES[name]
     cache = repo / ".mutmut-cache"
     if cache.exists():
         cache.unlink()
-    runner = f"{PYTHON} -m pytest -x -q -p no:cacheprovider {tests}"
+    runner = f"{PYTHON} -m pytest -x -q -p no:cacheprovider {tests} {' '.join(extra)}".strip()
     env = dict(os.environ, PYTHONPATH=str(repo), QTWEBENGINE_DISABLE_SANDBOX="1")
     started = datetime.datetime.now()
     subprocess.run([str(MUTMUT), "run", "--paths-to-mutate", paths, "--runner", runner, "--tests-dir", "tests",
@@ -75,30 +79,80 @@ def _run(name: str, repo: Path, log) -> dict:
         survivors.append((mid, (show.stdout or show.stderr).strip()))
     tested = counts["killed"] + counts["survived"] + counts["timeout"]
     score = (counts["killed"] + counts["timeout"]) / tested if tested else float("nan")
-    return {"name": name, "paths": paths, "tests": tests, "counts": counts, "score": score,
+    return {"name": name, "paths": paths, "tests": " ".join([tests, *extra]), "counts": counts, "score": score,
             "survivors": survivors, "minutes": minutes}
+
+
+def _changed_lines(diff: str) -> tuple[str, str]:
+    """The removed and the added line of a one-line mutant's diff (stripped)."""
+    body = [l for l in diff.splitlines() if l[:1] in "-+" and not l.startswith(("---", "+++"))]
+    minus = " ".join(l[1:].strip() for l in body if l.startswith("-"))
+    plus = " ".join(l[1:].strip() for l in body if l.startswith("+"))
+    return minus, plus
+
+
+def _equivalents() -> list[dict]:
+    if not EQUIVALENT.exists():
+        return []
+    import tomllib
+
+    return tomllib.loads(EQUIVALENT.read_text()).get("equivalent", [])
+
+
+def _classify(r: dict, reviewed: list[dict]) -> tuple[list, list]:
+    """Split a module's survivors into (open survivors, (mutant, diff, reason) equivalents)."""
+    open_, equivalent = [], []
+    for mid, diff in r["survivors"]:
+        minus, plus = _changed_lines(diff)
+        why = next((e["why"] for e in reviewed if e["module"] == r["name"]
+                    and e["original"] in minus and e["mutant"] in plus), None)
+        (equivalent.append((mid, diff, why)) if why else open_.append((mid, diff)))
+    return open_, equivalent
 
 
 def _markdown(results: list[dict], head: str) -> str:
     today = datetime.date.today().isoformat()
+    reviewed = _equivalents()
     lines = ["# Mutation testing of `bladerecon/core`", "",
              f"`make mutation` (tools/mutation.py, mutmut 2.5 in .cache/mutation-venv); table written {today} "
              f"at commit {head} on a {os.cpu_count()}-core machine, Python {platform.python_version()}; each "
              "module's own run date and commit are in its row.",
-             "Score = (killed + timed out) / tested. Survivors are listed for review: each must be "
-             "killed by a test or explained as equivalent.", "",
-             "| module | mutated | tests | killed | survived | timeout | score | minutes | run |",
-             "|---|---|---|---|---|---|---|---|---|"]
+             "Score = (killed + timed out) / (tested - equivalent): the survivors reviewed as equivalent "
+             "(`tools/mutation_equivalent.toml`, each with its reason, listed below) leave the count; "
+             "every other survivor is listed for a test to kill.", "",
+             "| module | mutated | tests | killed | survived | equivalent | timeout | score | minutes | run |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
+    split = {}
     for r in results:
         c = r["counts"]
-        lines.append(f"| {r['name']} | `{r['paths']}` | `{r['tests']}` | {c['killed']} | {c['survived']} | "
-                     f"{c['timeout']} | {100 * r['score']:.1f} % | {r['minutes']:.0f} | {r['date']} {r['commit']} |")
+        open_, equivalent = split[r["name"]] = _classify(r, reviewed)
+        tested = c["killed"] + c["survived"] + c["timeout"] - len(equivalent)
+        score = (c["killed"] + c["timeout"]) / tested if tested else float("nan")
+        lines.append(f"| {r['name']} | `{r['paths']}` | `{r['tests']}` | {c['killed']} | {len(open_)} | "
+                     f"{len(equivalent)} | {c['timeout']} | {100 * score:.1f} % | {r['minutes']:.0f} | "
+                     f"{r['date']} {r['commit']} |")
     for r in results:
-        if r["survivors"]:
+        open_, equivalent = split[r["name"]]
+        if open_:
             lines += ["", f"## Survivors in {r['name']}", ""]
-            for mid, diff in r["survivors"]:
+            for mid, diff in open_:
                 lines += [f"Mutant {mid}:", "", "```diff", diff, "```", ""]
+        if equivalent:
+            lines += ["", f"## Equivalent in {r['name']}", "", "| mutant | line | mutated to | why no test can tell |",
+                      "|---|---|---|---|"]
+            for mid, diff, why in equivalent:
+                minus, plus = _changed_lines(diff)
+                lines.append(f"| {mid} | `{minus}` | `{plus}` | {why} |")
     return "\n".join(lines) + "\n"
+
+
+def _write_table(head: str) -> Path:
+    """The table holds every module run so far (a subset run replaces only its own modules)."""
+    store = ROOT / "bench" / "results" / "mutation"
+    results = [json.loads((store / f"{m}.json").read_text()) for m in MODULES if (store / f"{m}.json").exists()]
+    out = ROOT / "bench" / "results" / "mutation.md"
+    out.write_text(_markdown(results, head))
+    return out
 
 
 def main() -> int:
@@ -107,8 +161,11 @@ def main() -> int:
     if unknown:
         print(f"mutation: unknown module(s) {', '.join(unknown)}; known: {', '.join(MODULES)}", file=sys.stderr)
         return 2
-    _venv()
     head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True).stdout.strip()
+    if "--table" in sys.argv[1:]:            # only rewrite the table (after reviewing equivalents)
+        print(f"mutation: wrote {_write_table(head).relative_to(ROOT)}", file=sys.stderr)
+        return 0
+    _venv()
     results = []
     with tempfile.TemporaryDirectory(prefix="bladerecon-mutation-") as tmp:
         repo = Path(tmp) / "repo"
@@ -124,11 +181,7 @@ def main() -> int:
                 store = ROOT / "bench" / "results" / "mutation"
                 store.mkdir(parents=True, exist_ok=True)
                 (store / f"{name}.json").write_text(json.dumps(r, indent=1) + "\n")
-    # the table holds every module run so far (a subset run replaces only its own modules)
-    results = [json.loads((ROOT / "bench" / "results" / "mutation" / f"{m}.json").read_text())
-               for m in MODULES if (ROOT / "bench" / "results" / "mutation" / f"{m}.json").exists()]
-    out = ROOT / "bench" / "results" / "mutation.md"
-    out.write_text(_markdown(results, head))
+    out = _write_table(head)
     print(f"mutation: wrote {out.relative_to(ROOT)}", file=sys.stderr)
     return 0
 

@@ -56,6 +56,9 @@ def curvature_from_derivatives(Su, Sv, Suu, Suv, Svv, normal_sign: float = 1.0) 
     H = (E * N - 2 * F * M + G * L) / (2 * det)
     root = np.sqrt(np.maximum(H * H - K, 0.0))
     k1, k2 = H + root, H - root
+    # rounding in H² - K (~1e-16 H²) becomes ~1e-8 H under the square root: principal curvatures
+    # equal to 6 digits are an umbilic, where the null vector below is only rounding noise
+    equal = root <= 1e-6 * np.abs(H)
 
     def direction(k: np.ndarray) -> np.ndarray:
         # two forms of the null vector of II - k I; take the better-conditioned one
@@ -64,7 +67,7 @@ def curvature_from_derivatives(Su, Sv, Suu, Suv, Svv, normal_sign: float = 1.0) 
         a = np.where((np.linalg.norm(a1, axis=1) >= np.linalg.norm(a2, axis=1))[:, None], a1, a2)
         d = a[:, :1] * Su + a[:, 1:] * Sv
         size = np.linalg.norm(d, axis=1)
-        umbilic = size <= 1e-12 * np.sqrt(E * G)
+        umbilic = equal | (size <= 1e-12 * np.sqrt(E * G))
         # at an umbilic every direction is principal: take S_u (and its perpendicular)
         d = np.where(umbilic[:, None], Su, d)
         return d / np.linalg.norm(d, axis=1)[:, None]
