@@ -66,10 +66,9 @@ def curvature_from_derivatives(Su, Sv, Suu, Suv, Svv, normal_sign: float = 1.0) 
         a2 = np.column_stack([N - k * G, -(M - k * F)])
         a = np.where((np.linalg.norm(a1, axis=1) >= np.linalg.norm(a2, axis=1))[:, None], a1, a2)
         d = a[:, :1] * Su + a[:, 1:] * Sv
-        size = np.linalg.norm(d, axis=1)
-        umbilic = equal | (size == 0.0)
-        # at an umbilic every direction is principal: take S_u (and its perpendicular)
-        d = np.where(umbilic[:, None], Su, d)
+        # at an umbilic every direction is principal: take S_u (and its perpendicular); elsewhere
+        # k1 != k2 and the better-conditioned form of the null vector is not zero
+        d = np.where(equal[:, None], Su, d)
         return d / np.linalg.norm(d, axis=1)[:, None]
 
     d1 = direction(k1)
