@@ -17,8 +17,8 @@ best-fit plane; see there for LE/TE, regions and the frame):
   stations at once (maximal inscribed circles = medial axis between the two sides).
 * **max thickness**: the largest inscribed-circle diameter, its position: chordwise
   distance of its centre from the LE (mm) and as a fraction of the chord.
-* **LE / TE radius** (issue 24 §3): the circle through the measured points ahead of its
-  centre and tangent (G1) to both flanks, each flank a polynomial fitted to its points near
+* **LE / TE radius** (issue 24 §3): the circle through the measured points on its arc
+  (between the flanks' touching points) and tangent (G1) to both flanks, each flank a polynomial fitted to its points near
   the edge (:func:`_edge_circle`); one arc point and two flanks fix it.
 * **thickness at offsets / chord fractions**: inscribed-circle diameter at given chordwise
   positions (camber-line-normal convention) and the width across the line ⟂ chord there
@@ -48,14 +48,19 @@ __all__ = ["SectionParameters", "measure_section", "segment_sections", "fit_circ
 
 #: (kept for older callers) points the old region-only radius fit asked for
 MIN_EDGE_POINTS = 5
-#: chord fractions tried, narrowest first, for the flank windows of the edge G1 condition
-FLANK_WINDOWS = (0.25, 0.4)
-#: arc points lie this many radii ahead of the edge circle's centre along the camber tangent: the
-#: flanks touch the circle ahead of its centre where the blade thickens (sin of the wedge half-angle)
+#: chord fractions tried, narrowest first, for the flank windows of the edge G1 condition (a cubic on
+#: 35 % of the chord: ~0.1 µm from the analytic flanks, and enough points that 2 µm noise averages out)
+FLANK_WINDOWS = (0.35, 0.5)
+#: first split, and the arc points judged for roundness: this many radii ahead of the edge circle's
+#: centre along the camber tangent (the flanks touch the circle ahead of its centre where the blade
+#: thickens, by the sine of the wedge half-angle)
 ARC_AHEAD = 0.25
 FLANK_DEGREE = 3
+#: radians inside a touching point for a point to count as measured on the arc (``arc_points``)
+ARC_MARGIN = 0.02
 #: an edge whose arc points scatter more than 4 × the flanks' rms + this (mm) is reported as not round
-NOT_ROUND = 0.002
+#: (3 µm: a circle on a cambered flank pair, sheared by the camber, scatters 2 µm about its best circle)
+NOT_ROUND = 0.003
 
 
 @dataclass(frozen=True)
@@ -245,7 +250,7 @@ def _flank_model(x: np.ndarray, y: np.ndarray):
     with what its uncertainty needs: (coefficients, x shift, (VᵀV)⁻¹ of the fit)."""
     if len(x) < 2:
         return None
-    deg = FLANK_DEGREE if len(x) >= 12 else (2 if len(x) >= 4 else 1)
+    deg = FLANK_DEGREE if len(x) >= 6 else (2 if len(x) >= 4 else 1)
     xm = x.mean()
     V = np.vander(x - xm, deg + 1)
     coef = np.linalg.lstsq(V, y, rcond=None)[0]
@@ -281,7 +286,7 @@ def _foot_on_flank(c: np.ndarray, model) -> tuple[float, float]:
 
 
 def _fit_edge_circle(pa: np.ndarray, flanks: list, z: np.ndarray) -> np.ndarray:
-    """Gauss-Newton (step halving) on (cx, cy, r): arc residuals |p − c| − r and the G1 residuals
+    """Levenberg-Marquardt on (cx, cy, r): arc residuals |p − c| − r and the G1 residuals
     (dist(c, flank) − r) / sqrt(leverage); the gradient of a distance to a curve is the unit
     vector from its foot point (the foot moves along the curve, to first order no change)."""
     def system(z):
@@ -300,33 +305,54 @@ def _fit_edge_circle(pa: np.ndarray, flanks: list, z: np.ndarray) -> np.ndarray:
     res, J = system(z)
     cost = res @ res
     scale = max(abs(z[2]), 1.0)
-    for _ in range(50):
-        step = np.linalg.lstsq(J, -res, rcond=None)[0]
+    lam = 1e-6
+    for _ in range(100):
+        # Levenberg-Marquardt (Marquardt's scaling): along a thin edge the flanks' G1 hardly moves
+        # with the centre's place along the camber line, so a plain Gauss-Newton step there is
+        # huge, and halving it keeps its bad direction; the damping turns it towards the gradient
+        d = np.sqrt(lam * np.maximum((J * J).sum(axis=0), 1e-12))
+        step = np.linalg.lstsq(np.vstack([J, np.diag(d)]), np.concatenate([-res, np.zeros(3)]), rcond=None)[0]
         if np.abs(step).max() < 1e-12 * scale:       # converged to round-off
             break
-        for _h in range(12):
-            z_new = z + step
-            res_new, J_new = system(z_new)
-            if res_new @ res_new < cost:
-                break
-            step = 0.5 * step
+        res_new, J_new = system(z + step)
+        if res_new @ res_new < cost:
+            z, res, J, cost = z + step, res_new, J_new, res_new @ res_new
+            lam = max(lam * 0.1, 1e-12)
         else:
-            break                                    # no descent left: at the minimum
-        z, res, J, cost = z_new, res_new, J_new, res_new @ res_new
+            lam *= 10.0
+            if lam > 1e12:                           # no descent left: at the minimum
+                break
     return z
+
+
+def _touch_angle(c: np.ndarray, model, sgn: int, r: float) -> tuple[float, float]:
+    """Where a flank touches the edge circle (centre c, radius r; edge-local frame): the angle of
+    the foot point about the centre from the edge's tip direction (−x; towards the flank's side
+    > 0) and its x. Without a flank model yet: 0.25 r ahead of the centre (ARC_AHEAD)."""
+    if model is None:
+        return float(np.arccos(ARC_AHEAD)), float(c[0] - ARC_AHEAD * r)
+    foot = _foot_on_flank(c, model)[2]
+    return float(sgn * np.arctan2(foot[1] - c[1], c[0] - foot[0])), float(foot[0])
 
 
 def _edge_circle(seg: Segmentation, region: int, cam: np.ndarray, rad: np.ndarray) -> EdgeCircle | None:
     """The edge circle from all the evidence (issue 24 §3).
 
-    Works in an edge-local frame: origin the edge point, x into the blade along the chord, y
-    across. The arc points are the measured points beyond the circle's centre (towards the
-    edge); the flank points are those 0.5 r to 8 % of the chord behind it, each side fitted by
-    a quadratic y(x) and split by the camber line (the inscribed-circle centres ``cam``).
-    Unknowns (centre, radius) by least squares on the arc residuals ``|p − c| − r`` plus the G1
-    condition to both flanks, ``dist(c, flank) − r``, weighted as ``sqrt(n_flank)/2`` points:
-    one arc point and two flanks already fix the circle. Repeated until the point split stops
-    changing. None when no measured point lies on the edge side of the centre.
+    Works in an edge-local frame: origin the edge point, x into the blade along the camber
+    tangent, y across; the circle starts with the foremost measured point on its tip. Each
+    measured point is evidence for the piece of the profile it lies on: the arc between the
+    flanks' touching points (the feet of the G1 condition) or the flank on its side (split by
+    the camber line, the inscribed-circle centres ``cam``), that flank's points from its
+    touching point to 35 % of the chord (50 % when fewer than 5) fitted by a cubic y(x) (a
+    quadratic or a line with fewer than 6). The first passes split by fixed bands (arc 0.25 r
+    ahead of the centre, flanks from 0.5 r behind it), robust from a poor start; then by the
+    touching points, which keeps the points near them, the ones that place a sparsely measured
+    circle along the camber line. Unknowns (centre, radius) by Levenberg-Marquardt on the arc
+    residuals ``|p − c| − r`` plus the G1 condition to both flanks, ``dist(c, flank) − r`` over
+    the square root of the flank fit's leverage at the foot: one arc point and two flanks
+    already fix the circle. Repeated until the point split stops changing. With no point on
+    the arc, the foremost point stands in (the largest circle tangent to both flanks that the
+    points allow: an upper bound) and ``arc_points`` is 0. None when that fails.
     """
     at_le = region == LE
     u = (seg.te - seg.le) / seg.chord
@@ -348,26 +374,40 @@ def _edge_circle(seg: Segmentation, region: int, cam: np.ndarray, rad: np.ndarra
     order = np.argsort(cx)
     cx, cy, rr = cx[order], cy[order], rad[order]
     r = float(rr[0])
-    c = np.array([r, float(np.interp(r, cx, cy))])
-    split_prev = None
-    for _ in range(8):
-        arc = (X - c[0]) <= -ARC_AHEAD * r
-        if not arc.any():
+    # start with the foremost measured point on the circle's tip: the interpolant's end (the
+    # frame's origin) can lie a fraction of a radius off a sparsely measured edge
+    k0 = int(np.argmin(X))
+    c = np.array([X[k0] + r, Y[k0]])
+    split_prev, models, by_touch = None, [None, None], False
+    for _ in range(16):
+        # first with fixed bands round the centre (robust from a poor start), then each point on
+        # the piece of the profile model it lies on: the arc between the flanks' touching points
+        # (feet of the G1 condition), else the flank on its side. Near a touching point both pieces
+        # agree to first order, so no band need be left out: on a sparse edge those points are
+        # what holds the circle's place along the camber line
+        lim = [_touch_angle(c, mod if by_touch else None, sgn, r) for mod, sgn in zip(models, (1, -1))]
+        phi = np.arctan2(Y - c[1], c[0] - X)
+        arc = (phi <= lim[0][0]) & (phi >= -lim[1][0])
+        measured_arc = bool(arc.any())
+        if not measured_arc:        # the foremost point: the largest circle the points allow
             arc = X == X.min()
-        lo_x = c[0] + 0.5 * r
         side = Y - np.interp(X, cx, cy)
-        models, counts, flank_sq = [], [], []
-        for sgn in (1, -1):
+        models, counts, flank_sq, masks = [], [], [], []
+        for sgn, (ang, x_touch) in zip((1, -1), lim):
+            beyond = (np.sign(side) == sgn) & ~arc
+            beyond &= (np.mod(sgn * phi, 2 * np.pi) > ang) if by_touch else (X >= c[0] + 0.5 * r)
             for width in FLANK_WINDOWS:
-                m = (X >= lo_x) & (X <= lo_x + width * L) & (np.sign(side) == sgn)
+                m = beyond & (X <= x_touch + width * L)
                 if m.sum() >= 5:
                     break
             models.append(_flank_model(X[m], Y[m]))
             counts.append(int(m.sum()))
+            masks.append(m)
             if models[-1] is not None and m.sum() > len(models[-1][0]):
                 fres = np.polyval(models[-1][0], X[m] - models[-1][1]) - Y[m]
-                flank_sq.append(float(fres @ fres) / (m.sum() - len(models[-1][0])))
-        split = (arc.tobytes(), tuple(counts))
+                far = X[m] >= np.median(X[m])        # the window's far half: no joint in it
+                flank_sq.append(fres[far] * np.sqrt(m.sum() / (m.sum() - len(models[-1][0]))))
+        split = (arc.tobytes(), masks[0].tobytes(), masks[1].tobytes())
         pa = np.column_stack([X[arc], Y[arc]])
 
         flanks = [m for m in models if m is not None]
@@ -376,15 +416,26 @@ def _edge_circle(seg: Segmentation, region: int, cam: np.ndarray, rad: np.ndarra
         z0 = _fit_edge_circle(pa, flanks, np.array([c[0], c[1], r]))
         c, r = z0[:2], float(z0[2])
         if split == split_prev:
-            break
+            if by_touch or models[0] is None or models[1] is None:
+                break
+            by_touch = True
         split_prev = split
     if not (np.isfinite(r) and 0 < r < 0.5 * L):
         return None
-    res = np.linalg.norm(pa - c, axis=1) - r
+    # the shape figures away from the joints, where an edge that is not a circle (an ellipse)
+    # differs most from one and its points cannot pass for the other piece's: arc points ahead
+    # of the centre, and the flanks' noise from the far half of their windows
+    ahead = pa[:, 0] <= c[0] - ARC_AHEAD * r
+    res = np.linalg.norm((pa[ahead] if ahead.any() else pa) - c, axis=1) - r
     centre = e + c[0] * ax + c[1] * ay
-    flank_rms = float(np.sqrt(np.mean(flank_sq))) if flank_sq else float("nan")
-    return EdgeCircle(centre, r, int(len(pa)), (counts[0], counts[1]), float(np.sqrt(np.mean(res ** 2))), ax,
-                      flank_rms)
+    flank_rms = float(np.sqrt(np.mean(np.concatenate(flank_sq) ** 2))) if flank_sq else float("nan")
+    # points on the arc by more than ARC_MARGIN (radians) from a touching point: a flank point the
+    # circle was drawn through to its touching point is no evidence of the arc
+    lim = [_touch_angle(c, mod, sgn, r) for mod, sgn in zip(models, (1, -1))]
+    phi = np.arctan2(Y - c[1], c[0] - X)
+    on_arc = int(np.sum((phi <= lim[0][0] - ARC_MARGIN) & (phi >= -lim[1][0] + ARC_MARGIN))) if measured_arc else 0
+    return EdgeCircle(centre, r, on_arc, (counts[0], counts[1]),
+                      float(np.sqrt(np.mean(res ** 2))), ax, flank_rms)
 
 
 def _edge_radius(seg: Segmentation, region: int, name: str, cam: np.ndarray, rad: np.ndarray) -> EdgeCircle:
@@ -470,7 +521,11 @@ def measure_section(seg: Segmentation, offsets: tuple[float, ...] = (), n_points
                                 f"{ec.rms * 1000:.1f} µm rms about the fitted circle against {ec.flank_rms * 1000:.1f} µm "
                                 "on the flanks (an elliptic, square or damaged edge?)")
             axes.append(ec.axis)
-            if ec.arc_points < 2:
+            if ec.arc_points == 0:
+                warnings.append(f"section {seg.index}: no measured point lies on the {name}'s arc: its radius is "
+                                "that of the largest circle tangent to both flanks that the points allow (an upper "
+                                "bound; the chord end as uncertain): measure points round the edge")
+            elif ec.arc_points < 2:
                 warnings.append(f"section {seg.index}: the {name} radius rests on {ec.arc_points} measured point "
                                 "on its arc and the flanks' tangency: measure more points round the edge")
         except BladeReconError as err:
