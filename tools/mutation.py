@@ -39,11 +39,13 @@ MODULES: dict[str, tuple[str, ...]] = {
     "fitting": ("bladerecon/core/geometry/fitting.py", "tests/test_fitting.py tests/test_bspline.py"),
     "surface_analysis": ("bladerecon/core/analysis/surface_analysis.py", "tests/test_surface_analysis.py"),
 }
-#: survivors reviewed as equivalent (no test can tell them apart from the code): matched by the
-#: removed and the added line of the mutant's diff, each with the reason
-EQUIVALENT = ROOT / "tools" / "mutation_equivalent.toml"
+#: survivors reviewed as equivalent (no test can tell them apart from the code), one file per
+#: module (<module>.toml): matched by the removed and the added line of the mutant's diff, each
+#: with the reason
+EQUIVALENT = ROOT / "tools" / "mutation_equivalent"
+#: mutmut's "suspicious" (the tests passed, only slower) is a survivor: nothing failed
 STATUS = {"ok_killed": "killed", "bad_survived": "survived", "bad_timeout": "timeout",
-          "ok_suspicious": "suspicious", "skipped": "skipped", "untested": "untested"}
+          "ok_suspicious": "survived", "skipped": "skipped", "untested": "untested"}
 
 
 def _venv() -> None:
@@ -71,7 +73,7 @@ def _run(name: str, repo: Path, log) -> dict:
     survived = []
     for mid, status in rows:
         counts[STATUS.get(status, status)] = counts.get(STATUS.get(status, status), 0) + 1
-        if status == "bad_survived":
+        if STATUS.get(status) == "survived":
             survived.append(mid)
     survivors = []
     for mid in survived:
@@ -92,11 +94,12 @@ def _changed_lines(diff: str) -> tuple[str, str]:
 
 
 def _equivalents() -> list[dict]:
-    if not EQUIVALENT.exists():
-        return []
     import tomllib
 
-    return tomllib.loads(EQUIVALENT.read_text()).get("equivalent", [])
+    out = []
+    for f in sorted(EQUIVALENT.glob("*.toml")):
+        out += [dict(e, module=f.stem) for e in tomllib.loads(f.read_text()).get("equivalent", [])]
+    return out
 
 
 def _classify(r: dict, reviewed: list[dict]) -> tuple[list, list]:
@@ -118,7 +121,7 @@ def _markdown(results: list[dict], head: str) -> str:
              f"at commit {head} on a {os.cpu_count()}-core machine, Python {platform.python_version()}; each "
              "module's own run date and commit are in its row.",
              "Score = (killed + timed out) / (tested - equivalent): the survivors reviewed as equivalent "
-             "(`tools/mutation_equivalent.toml`, each with its reason, listed below) leave the count; "
+             "(`tools/mutation_equivalent/<module>.toml`, each with its reason, listed below) leave the count; "
              "every other survivor is listed for a test to kill.", "",
              "| module | mutated | tests | killed | survived | equivalent | timeout | score | minutes | run |",
              "|---|---|---|---|---|---|---|---|---|---|"]
