@@ -38,7 +38,7 @@ from scipy.optimize import least_squares
 
 from bladerecon.core.sections.parameters import kasa_circle
 
-__all__ = ["EDGE_FRACTION", "EdgeJudgement", "section_plane", "edge_zone", "judge_edge", "judge_edges"]
+__all__ = ["EDGE_FRACTION", "EdgeJudgement", "in_plane_noise", "section_plane", "edge_zone", "judge_edge", "judge_edges"]
 
 # The edge model is fitted in the section plane by variable projection: the 5 geometric
 # numbers by scipy's Levenberg-Marquardt, the flank coefficients by linear least squares
@@ -51,6 +51,7 @@ NOISE_FACTOR = 1.5       # the edge model may miss its clean points by this time
 ARC_CURVATURE_TOLERANCE = 0.25   # relative: a circular arc's three-point curvatures agree this well
 FRESH_STARTS = 3         # best left-out runs refitted from fresh starts
 MIN_ZONE_POINTS = 12     # fewer points than this in a zone: the edge is not judged
+CURVATURE_SIGMAS = 4.0   # three-point curvatures of a circular arc agree within this many of their noise sigmas
 
 
 @dataclass(frozen=True)
@@ -73,6 +74,19 @@ def section_plane(points: np.ndarray):
     o = P.mean(axis=0)
     axes = np.linalg.svd(P - o, full_matrices=False)[2][:2]
     return o, axes, (P - o) @ axes.T
+
+
+def in_plane_noise(points: np.ndarray, offsets: np.ndarray) -> float:
+    """Robust standard deviation (mm) of the noise the edge model sees: ``offsets`` (k, 3) of
+    some points of the section ``points`` (n, 3) from a fair curve of it, their component
+    along the section plane's normal removed, 1.4826 times the median length (MAD). The
+    edge model works in the plane; a 3D distance would add the noise along the normal and,
+    for isotropic Gaussian noise, read a Rayleigh median, 1.75 sigma instead of 1."""
+    P = np.asarray(points, float)
+    normal = np.linalg.svd(P - P.mean(axis=0), full_matrices=False)[2][2]
+    r = np.asarray(offsets, float)
+    r = r - (r @ normal)[:, None] * normal
+    return 1.4826 * float(np.median(np.linalg.norm(r, axis=1))) if len(r) else 0.0
 
 
 def edge_zone(q: np.ndarray, end: int, fraction: float = EDGE_FRACTION) -> np.ndarray:
@@ -238,19 +252,25 @@ def _fit(q, w, g0, sense, tip):
 
 def _constant_curvature(z, arc, r, noise):
     """Whether the good arc points turn as one circle: the circle through every three
-    consecutive ones has a curvature within ``ARC_CURVATURE_TOLERANCE`` of 1/r (plus what
-    the noise does to three points ``h`` apart, about 4 noise / h²). An edge whose curvature
-    grows and falls along it (an elliptical or designed edge) fits a circle plus flanks within
-    a few µm when the flanks take up the difference; the points themselves say otherwise."""
+    consecutive ones has a curvature within ``ARC_CURVATURE_TOLERANCE`` of 1/r, plus
+    ``CURVATURE_SIGMAS`` times what the noise does to it. Three points ``h1``, ``h2`` apart
+    whose normal offsets have a standard deviation ``noise`` give a curvature with standard
+    deviation ``2 noise sqrt(1/(h1 h2)² + 1/(h1 (h1+h2))² + 1/(h2 (h1+h2))²)`` (the middle
+    point moves the sagitta over ``h1 h2 / 2``, an end one over ``h (h1+h2) / 2``): at random
+    spacing a close pair makes its triples blind, the others still judge. An edge whose
+    curvature grows and falls along it (an elliptical or designed edge) fits a circle plus
+    flanks within a few µm when the flanks take up the difference; the points themselves
+    say otherwise."""
     i = np.flatnonzero(arc[:-2] & arc[1:-1] & arc[2:])
     if i.size == 0:
         return True
     a, b, c = z[i], z[i + 1], z[i + 2]
     cross = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
-    ab, bc, ca = (np.linalg.norm(b - a, axis=1), np.linalg.norm(c - b, axis=1), np.linalg.norm(a - c, axis=1))
-    kappa = 2.0 * np.abs(cross) / np.maximum(ab * bc * ca, 1e-300)
-    h = 0.5 * ca
-    return bool(np.all(np.abs(kappa * r - 1.0) <= ARC_CURVATURE_TOLERANCE + 4.0 * noise * r / h ** 2))
+    h1, h2, ca = (np.linalg.norm(b - a, axis=1), np.linalg.norm(c - b, axis=1), np.linalg.norm(a - c, axis=1))
+    kappa = 2.0 * np.abs(cross) / np.maximum(h1 * h2 * ca, 1e-300)
+    h1, h2 = np.maximum(h1, 1e-300), np.maximum(h2, 1e-300)
+    spread = 2.0 * noise * np.sqrt((h1 * h2) ** -2.0 + (h1 * (h1 + h2)) ** -2.0 + (h2 * (h1 + h2)) ** -2.0)
+    return bool(np.all(np.abs(kappa * r - 1.0) <= ARC_CURVATURE_TOLERANCE + CURVATURE_SIGMAS * spread * r))
 
 
 def judge_edge(q: np.ndarray, index: np.ndarray, end: int, sense: float, threshold: float,

@@ -35,7 +35,7 @@ import numpy as np
 from bladerecon.core.geometry.bspline import closed_parameters, collocation_matrix, curve_derivatives, evaluate_curve
 from bladerecon.core.errors import BladeReconError
 from bladerecon.core.geometry.fitting import interpolate_curve_with_end_derivatives, smoothing_matrix, solve_sparse
-from bladerecon.core.sections.edge_bad_points import EDGE_FRACTION, EdgeJudgement, judge_edges
+from bladerecon.core.sections.edge_bad_points import EDGE_FRACTION, EdgeJudgement, in_plane_noise, judge_edges
 from bladerecon.core.surface.section_curves import refine_curve_parameters
 from bladerecon.core.geometry.spline import BSplineCurve
 
@@ -203,9 +203,11 @@ def _detect(points: np.ndarray, threshold: float = DEFAULT_THRESHOLD, max_rounds
     # below has a knot at every edge point and follows a run there
     if edges:
         # the noise the edge model may show on its clean points: that of the flanks about
-        # the fair fit (robust rms), so that an edge that is no circular arc is not judged
-        d0 = fair_fit(P, **fit_options)[2]
-        noise = 1.4826 * float(np.median(d0[~edge_zones(P, EDGE_FRACTION)]))
+        # the fair fit, in the section plane (robust), so that an edge that is no circular
+        # arc is not judged (the edge model sees no noise along the plane normal)
+        curve0, t0, _ = fair_fit(P, **fit_options)
+        flank = ~edge_zones(P, EDGE_FRACTION)
+        noise = in_plane_noise(P, (P - evaluate_curve(curve0, t0))[flank])
         edge_bad, edge_d, feet, judgements = judge_edges(P, threshold, noise)
     else:
         edge_bad, edge_d, feet, judgements = np.zeros(n, bool), np.full(n, np.nan), np.full((n, 3), np.nan), []
