@@ -36,7 +36,7 @@ MODULES: dict[str, tuple[str, ...]] = {
     "segmentation": ("bladerecon/core/sections/segmentation.py", "tests/test_segmentation.py"),
     "parameters": ("bladerecon/core/sections/parameters.py", "tests/test_section_parameters.py"),
     "fairing": ("bladerecon/core/sections/fairing.py", "tests/test_fairing.py"),
-    "fitting": ("bladerecon/core/geometry/fitting.py", "tests/test_fitting.py tests/test_bspline.py"),
+    "fitting": ("bladerecon/core/geometry/fitting.py", "tests/test_fitting.py tests/test_bspline.py tests/test_fitting_contract.py"),
     "surface_analysis": ("bladerecon/core/analysis/surface_analysis.py", "tests/test_surface_analysis.py"),
 }
 #: survivors reviewed as equivalent (no test can tell them apart from the code), one file per
