@@ -31,7 +31,7 @@ PYTHON = "/usr/bin/python3"
 #: too slow to run once per mutant: the score is then a lower bound of the whole suite's])
 MODULES: dict[str, tuple[str, ...]] = {
     "projection": ("bladerecon/core/geometry/projection/", "tests/test_projection.py"),
-    "alignment": ("bladerecon/core/analysis/alignment.py", "tests/test_alignment.py"),
+    "alignment": ("bladerecon/core/analysis/alignment.py", "tests/test_alignment_contract.py tests/test_alignment.py"),
     "section_curves": ("bladerecon/core/surface/section_curves.py", "tests/test_reconstruct.py"),
     "segmentation": ("bladerecon/core/sections/segmentation.py", "tests/test_segmentation.py"),
     "parameters": ("bladerecon/core/sections/parameters.py", "tests/test_section_parameters.py"),

@@ -87,7 +87,7 @@ class Alignment:
                "axis": self.axis.tolist(), "translation_mm": self.translation_mm.tolist(),
                "rms_before": self.rms_before, "rms_after": self.rms_after,
                "iterations": self.iterations, "converged": self.converged, "robust": self.robust}
-        if self.robust and self.weights is not None:
+        if self.weights is not None:                # only a robust fit has weights
             out["robust_cutoff_mm"] = self.cutoff_mm
             out["points_weighted_out"] = self.points_weighted_out
         return out
@@ -128,7 +128,7 @@ def rotation_about(axis, angle_deg: float, centre=(0.0, 0.0, 0.0)) -> np.ndarray
 
 
 def apply_transform(points: np.ndarray, matrix: np.ndarray) -> np.ndarray:
-    """Points (m, 3) mm moved by the 4x4 rigid ``matrix``."""
+    """Points (..., 3) mm moved by the 4x4 rigid ``matrix``."""
     P = np.asarray(points, dtype=float)
     return P @ matrix[:3, :3].T + matrix[:3, 3]
 
@@ -137,9 +137,7 @@ def transform_surface(surface, matrix: np.ndarray):
     """The B-spline surface moved by the rigid ``matrix`` (exact: a B-spline is affine-invariant)."""
     from dataclasses import replace
 
-    poles = np.asarray(surface.poles, dtype=float)
-    moved = apply_transform(poles.reshape(-1, 3), matrix).reshape(poles.shape)
-    return replace(surface, poles=moved)
+    return replace(surface, poles=apply_transform(surface.poles, matrix))
 
 
 def _rodrigues(w: np.ndarray) -> np.ndarray:
@@ -207,16 +205,15 @@ def best_fit(
     P0 = np.asarray(points, dtype=float)
     if P0.ndim != 2 or P0.shape[1] != 3 or len(P0) == 0:
         raise BladeReconError("alignment needs an (m, 3) array of points (mm)")
-    n_unknowns = {"none": 0, "rigid": 6, "translate": 3, "rotate-z": 1}[mode]
-    if len(P0) < max(n_unknowns, 1) * 2:
-        raise BladeReconError(f"alignment '{mode}' needs at least {2 * n_unknowns} points; got {len(P0)}")
+    need = 2 * {"none": 0, "rigid": 6, "translate": 3, "rotate-z": 1}[mode]     # twice the unknowns
+    if len(P0) < need:
+        raise BladeReconError(f"alignment '{mode}' needs at least {need} points; got {len(P0)}")
     ax = np.asarray(axis, dtype=float)
     ax = ax / np.linalg.norm(ax)
     c = P0.mean(axis=0) if centre is None and mode == "rigid" else np.asarray(
         centre if centre is not None else (0.0, 0.0, 0.0), dtype=float)
     w = np.ones(len(P0)) if weights is None else np.asarray(weights, dtype=float)
-    sw = np.sqrt(w)
-    size = float(np.max(np.linalg.norm(P0 - P0.mean(axis=0), axis=1))) or 1.0
+    size = float(np.max(np.linalg.norm(P0 - P0.mean(axis=0), axis=1)))
 
     M = np.eye(4)
     r, n = _signed(P0, project)
@@ -226,7 +223,6 @@ def best_fit(
         return Alignment(mode, M, 0.0, ax, np.zeros(3), rms_before, rms_before, 0, True, history)
 
     converged = False
-    it = 0
     w_fit, cutoff = w, None
     for it in range(1, max_iter + 1):
         P = apply_transform(P0, M)
@@ -270,8 +266,9 @@ def best_fit(
             f"{rms_after:.6g} mm (was {rms_before:.6g} mm); check that the points belong to this "
             "nominal and are in the same frame, or use --align none")
     angle, axis_out = _angle_axis(M[:3, :3])
+    share = np.divide(w_fit, w, out=np.zeros_like(w_fit), where=w > 0) if robust else None   # the biweight
     return Alignment(mode, M, angle, axis_out, M[:3, 3].copy(), rms_before, rms_after, it, True, history,
-                     robust, w_fit / np.maximum(w, 1e-300) if robust else None, cutoff)
+                     robust, share, cutoff)
 
 
 def _biweight(r: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, float]:
