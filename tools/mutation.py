@@ -16,6 +16,7 @@ import datetime
 import json
 import os
 import platform
+import shutil
 import sqlite3
 import subprocess
 import sys
@@ -61,7 +62,11 @@ def _run(name: str, repo: Path, log) -> dict:
     if cache.exists():
         cache.unlink()
     runner = f"{PYTHON} -m pytest -x -q -p no:cacheprovider {tests} {' '.join(extra)}".strip()
-    env = dict(os.environ, PYTHONPATH=str(repo), QTWEBENGINE_DISABLE_SANDBOX="1")
+    # no bytecode: a mutant of the same size written within the second of the previous one
+    # would run the previous one's cached .pyc (seen: killed mutants reported as survivors)
+    for stale in repo.rglob("__pycache__"):
+        shutil.rmtree(stale, ignore_errors=True)
+    env = dict(os.environ, PYTHONPATH=str(repo), QTWEBENGINE_DISABLE_SANDBOX="1", PYTHONDONTWRITEBYTECODE="1")
     started = datetime.datetime.now()
     subprocess.run([str(MUTMUT), "run", "--paths-to-mutate", paths, "--runner", runner, "--tests-dir", "tests",
                     "--simple-output"], cwd=repo, env=env, stdout=log, stderr=subprocess.STDOUT)
