@@ -44,9 +44,9 @@ MODULES: dict[str, tuple[str, ...]] = {
 #: module (<module>.toml): matched by the removed and the added line of the mutant's diff, each
 #: with the reason
 EQUIVALENT = ROOT / "tools" / "mutation_equivalent"
-#: mutmut's "suspicious" (the tests passed, only slower) is a survivor: nothing failed
+#: mutmut's "suspicious" is a mutant the tests killed, only more slowly than the baseline run
 STATUS = {"ok_killed": "killed", "bad_survived": "survived", "bad_timeout": "timeout",
-          "ok_suspicious": "survived", "skipped": "skipped", "untested": "untested"}
+          "ok_suspicious": "killed", "skipped": "skipped", "untested": "untested"}
 
 
 def _venv() -> None:
@@ -61,7 +61,12 @@ def _run(name: str, repo: Path, log) -> dict:
     cache = repo / ".mutmut-cache"
     if cache.exists():
         cache.unlink()
-    runner = f"{PYTHON} -m pytest -x -q -p no:cacheprovider {tests} {' '.join(extra)}".strip()
+    # mutmut counts any exit code but 1 as "survived": the runner below turns pytest's answer
+    # into 0 (every test passed) or 1 (anything else: a failure, a mutant that breaks collection,
+    # a crash) and logs every exit code that was neither 0 nor 1, for the table
+    runner = f"{PYTHON} {repo / 'tools' / 'mutation.py'} --run-tests {tests} {' '.join(extra)}".strip()
+    odd = repo / ".mutation-odd-exits"
+    odd.unlink(missing_ok=True)
     # no bytecode: a mutant of the same size written within the second of the previous one
     # would run the previous one's cached .pyc (seen: killed mutants reported as survivors)
     for stale in repo.rglob("__pycache__"):
@@ -84,10 +89,12 @@ def _run(name: str, repo: Path, log) -> dict:
     for mid in survived:
         show = subprocess.run([str(MUTMUT), "show", str(mid)], cwd=repo, env=env, capture_output=True, text=True)
         survivors.append((mid, (show.stdout or show.stderr).strip()))
+    odd_exits = odd.read_text().split() if odd.exists() else []
     tested = counts["killed"] + counts["survived"] + counts["timeout"]
     score = (counts["killed"] + counts["timeout"]) / tested if tested else float("nan")
     return {"name": name, "paths": paths, "tests": " ".join([tests, *extra]), "counts": counts, "score": score,
-            "survivors": survivors, "minutes": minutes}
+            "survivors": survivors, "minutes": minutes,
+            "odd_exits": odd_exits}
 
 
 def _changed_lines(diff: str) -> tuple[str, str]:
@@ -163,7 +170,19 @@ def _write_table(head: str) -> Path:
     return out
 
 
+def _run_tests(args: list[str]) -> int:
+    """The mutmut runner: pytest on ``args``; 0 if every test passed, else 1 (and the odd code logged)."""
+    env = dict(os.environ, PYTHONDONTWRITEBYTECODE="1")
+    rc = subprocess.run([PYTHON, "-m", "pytest", "-x", "-q", "-p", "no:cacheprovider", *args], env=env).returncode
+    if rc not in (0, 1):
+        with open(Path.cwd() / ".mutation-odd-exits", "a") as f:
+            f.write(f"{rc}\n")
+    return 0 if rc == 0 else 1
+
+
 def main() -> int:
+    if sys.argv[1:2] == ["--run-tests"]:
+        return _run_tests(sys.argv[2:])
     wanted = [m.strip() for m in os.environ.get("MUTATION_MODULES", ",".join(MODULES)).split(",") if m.strip()]
     unknown = [m for m in wanted if m not in MODULES]
     if unknown:
