@@ -157,7 +157,8 @@ def _markdown(results: list[dict], head: str) -> str:
                       "|---|---|---|---|"]
             for mid, diff, why in equivalent:
                 minus, plus = _changed_lines(diff)
-                lines.append(f"| {mid} | `{minus}` | `{plus}` | {why} |")
+                cell = lambda t: t.replace("|", "\\|")             # a | inside a table cell
+                lines.append(f"| {mid} | `{cell(minus)}` | `{cell(plus)}` | {cell(why)} |")
     return "\n".join(lines) + "\n"
 
 
