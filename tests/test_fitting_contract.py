@@ -79,6 +79,10 @@ def test_closed_interpolation_of_every_degree_passes_through_the_points(degree):
         want = np.r_[mid, mid[0] + 1.0]
     assert np.allclose(knots, want, atol=1e-15) and np.all(mults == 1)
     assert interpolate_closed_curve(Q).degree == 3
+    # parameters that do not start at 0: the wrapped midpoint beyond 1 comes back to the front
+    v = np.array([0.05, 0.3, 0.55, 0.8, 0.98])
+    k2, _ = periodic_knots_from_parameters(v, 2)
+    assert np.allclose(k2, [0.015, 0.175, 0.425, 0.675, 0.89, 1.015], atol=1e-12)
 
 
 def test_closed_interpolation_needs_degree_plus_two_points():
