@@ -295,21 +295,26 @@ def _chord_ends(curve: BSplineCurve, t: np.ndarray, pts: np.ndarray) -> tuple[fl
     return float(ts[0]), float(ts[1])
 
 
-def _edge_analysis(kappa: np.ndarray, i_end: int, perimeter: float, chord: float, flank_level: float):
+def _smoothed_curvature(kappa: np.ndarray, perimeter: float, chord: float) -> tuple[np.ndarray, int]:
+    """The curvature table median-filtered over ~0.5 % of the chord, and the half width (samples):
+    a spike of the interpolant (a seam, a bad point) neither makes the peak nor the joint, while
+    a true step of curvature stays sharp. One filter serves both ends (it is most of their cost)."""
+    w = max(int(0.0025 * chord / (perimeter / kappa.size)), 1)
+    return median_filter(kappa, size=2 * w + 1, mode="wrap"), w
+
+
+def _edge_analysis(ksm_all: np.ndarray, w: int, i_end: int, perimeter: float, chord: float, flank_level: float):
     """Curvature peak and the two joints (steepest curvature drop) around one end.
 
-    ``kappa`` is the dense table (equal steps in the curve parameter, close to arc length);
+    ``ksm_all``, ``w``: the dense curvature table (equal steps in the curve parameter, close
+    to arc length) median-filtered, and the filter's half width (:func:`_smoothed_curvature`);
     ``i_end`` the index of the edge point. Returns
     (i_peak, i_minus, i_plus, peak) with i_minus before, i_plus after the end (table indices,
     may wrap).
     """
-    n = kappa.size
+    n = ksm_all.size
     ds = perimeter / n
     reach = int(min(0.25 * chord, 0.2 * perimeter) / ds)
-    # median filter over ~0.5 % of the chord: a spike of the interpolant (a seam, a bad
-    # point) neither makes the peak nor the joint, while a true step of curvature stays sharp
-    w = max(int(0.0025 * chord / ds), 1)
-    ksm_all = median_filter(kappa, size=2 * w + 1, mode="wrap")
     off = np.arange(-reach, reach + 1)
     near = np.abs(off) <= max(int(0.03 * chord / ds), 2)
     idx = (i_end + off[near]) % n
@@ -364,10 +369,11 @@ def segment_section(points: np.ndarray, index: int = 0, span_axis: np.ndarray | 
     ends = evaluate_curve(curve, np.array([t_a, t_b]))
     chord = float(np.linalg.norm(ends[1] - ends[0]))
     flank_level = float(np.median(np.abs(kappa)))
+    ksm, w = _smoothed_curvature(kappa, perimeter, chord)
     info = []
     for t_end in (t_a, t_b):
         i_end = int(np.round((t_end - lo) / (hi - lo) * _TABLE)) % _TABLE
-        i_peak, i_m, i_p, peak = _edge_analysis(kappa, i_end, perimeter, chord, flank_level)
+        i_peak, i_m, i_p, peak = _edge_analysis(ksm, w, i_end, perimeter, chord, flank_level)
         if not peak > peak_ratio * max(flank_level, 1e-12):
             raise BladeReconError(
                 f"section {index}: no clear LE/TE curvature peak (end curvature {peak:.4g}/mm is not "
