@@ -157,7 +157,9 @@ def inscribed_circles(seg: Segmentation, stations: int | None = None) -> tuple[n
     if stations is None:
         stations = int(np.clip(2 * len(seg.points2d), 600, 2000))
     _, s_pts = _side_samples(seg, SUCTION, int(2.5 * stations))
-    tree = cKDTree(s_pts)
+    # the circle centres lie far from the sampled side: without compacted node boxes scipy finds
+    # the same nearest points in about 60 % of the time (measured; issue 24 §7)
+    tree = cKDTree(s_pts, compact_nodes=False)
     t, _ = _side_samples(seg, PRESSURE, stations)
     der = curve_derivatives(seg.curve, t, 1)
     p, d1 = der[:, 0], der[:, 1]
@@ -215,7 +217,7 @@ def _inside(pts: np.ndarray, loop: np.ndarray) -> np.ndarray:
     mid = 0.5 * (loop + np.roll(loop, -1, axis=0))
     e = np.roll(loop, -1, axis=0) - loop
     out = np.column_stack([e[:, 1], -e[:, 0]]) * np.sign(area)    # right of a ccw edge: outward
-    _, i = cKDTree(mid).query(pts)
+    _, i = cKDTree(mid, compact_nodes=False).query(pts)
     return ((pts - mid[i]) * out[i]).sum(axis=1) < 0
 
 
