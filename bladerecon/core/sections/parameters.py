@@ -256,34 +256,37 @@ def _flank_model(x: np.ndarray, y: np.ndarray):
     xm = x.mean()
     V = np.vander(x - xm, deg + 1)
     coef = np.linalg.lstsq(V, y, rcond=None)[0]
-    return coef, xm, np.linalg.pinv(V.T @ V)
+    # the polynomial and its two derivatives as plain floats a0 + a1 x + ..., made once per model:
+    # the foot-point Newton runs thousands of times a section and scalar Horner is fast
+    a = [float(v) for v in coef[::-1]]
+    a1 = [i * v for i, v in enumerate(a)][1:]
+    a2 = [i * v for i, v in enumerate(a1)][1:]
+    return coef, xm, np.linalg.pinv(V.T @ V), (a, a1, a2, np.arange(len(coef) - 1, -1, -1))
+
+
+def _horner(k: list, x: float) -> float:
+    out = 0.0
+    for v in reversed(k):
+        out = out * x + v
+    return out
 
 
 def _foot_on_flank(c: np.ndarray, model) -> tuple[float, float]:
     """Distance from c to the curve y = f(x) and the leverage of the fit at the foot point
     (Newton on the foot, from x = c_x): the G1 residual's variance is σ² times the leverage."""
-    coef, xm, inv = model
-    a = [float(v) for v in coef[::-1]]           # a0 + a1 x + ... (plain floats: scalar Horner is fast)
+    _, xm, inv, (a, a1, a2, powers) = model
     cx, cy = float(c[0]) - xm, float(c[1])
-
-    def horner(k: list, x: float) -> float:
-        out = 0.0
-        for v in reversed(k):
-            out = out * x + v
-        return out
-    a1 = [i * v for i, v in enumerate(a)][1:]
-    a2 = [i * v for i, v in enumerate(a1)][1:]
     x = cx
     for _ in range(8):
-        f, f1, f2 = horner(a, x), horner(a1, x), horner(a2, x)
+        f, f1, f2 = _horner(a, x), _horner(a1, x), _horner(a2, x)
         g = (x - cx) + (f - cy) * f1
         gp = 1 + f1 * f1 + (f - cy) * f2
         step = g / gp if abs(gp) > 1e-12 else 0.0
         x -= step
         if abs(step) < 1e-13:
             break
-    v = x ** np.arange(len(coef) - 1, -1, -1)
-    foot = np.array([x + xm, horner(a, x)])
+    v = x ** powers
+    foot = np.array([x + xm, _horner(a, x)])
     return float(np.hypot(*(c - foot))), float(v @ inv @ v), foot
 
 
@@ -291,18 +294,23 @@ def _fit_edge_circle(pa: np.ndarray, flanks: list, z: np.ndarray) -> np.ndarray:
     """Levenberg-Marquardt on (cx, cy, r): arc residuals |p − c| − r and the G1 residuals
     (dist(c, flank) − r) / sqrt(leverage); the gradient of a distance to a curve is the unit
     vector from its foot point (the foot moves along the curve, to first order no change)."""
+    n = len(pa)
+
     def system(z):
         cc, rz = z[:2], z[2]
         diff = cc - pa
         dist = np.maximum(np.linalg.norm(diff, axis=1), 1e-300)
-        res = [dist - rz]
-        jac = [np.column_stack([diff / dist[:, None], -np.ones(len(pa))])]
-        for mod in flanks:
+        res, jac = np.empty(n + len(flanks)), np.empty((n + len(flanks), 3))
+        res[:n] = dist - rz
+        jac[:n, :2] = diff / dist[:, None]
+        jac[:n, 2] = -1.0
+        for k, mod in enumerate(flanks, start=n):
             d, lev, foot = _foot_on_flank(cc, mod)
             w = 1.0 / np.sqrt(max(lev, 1e-3))
-            res.append(np.array([w * (d - rz)]))
-            jac.append(w * np.append((cc - foot) / max(d, 1e-300), -1.0)[None, :])
-        return np.concatenate(res), np.vstack(jac)
+            res[k] = w * (d - rz)
+            jac[k, :2] = w * ((cc - foot) / max(d, 1e-300))
+            jac[k, 2] = -w
+        return res, jac
 
     res, J = system(z)
     cost = res @ res
