@@ -34,7 +34,7 @@ MODULES: dict[str, tuple[str, ...]] = {
     "projection": ("bladerecon/core/geometry/projection/", "tests/test_projection.py"),
     "alignment": ("bladerecon/core/analysis/alignment.py", "tests/test_alignment_contract.py tests/test_alignment.py"),
     "section_curves": ("bladerecon/core/surface/section_curves.py", "tests/test_reconstruct.py"),
-    "segmentation": ("bladerecon/core/sections/segmentation.py", "tests/test_segmentation.py"),
+    "segmentation": ("bladerecon/core/sections/segmentation.py", "tests/test_segmentation_contract.py tests/test_segmentation.py"),
     "parameters": ("bladerecon/core/sections/parameters.py", "tests/test_section_parameters.py"),
     "fairing": ("bladerecon/core/sections/fairing.py", "tests/test_fairing.py"),
     "fitting": ("bladerecon/core/geometry/fitting.py", "tests/test_fitting.py tests/test_bspline.py tests/test_fitting_contract.py"),
