@@ -253,7 +253,7 @@ def _flank_model(x: np.ndarray, y: np.ndarray):
     if len(x) < 2:
         return None
     deg = FLANK_DEGREE if len(x) >= 6 else (2 if len(x) >= 4 else 1)
-    xm = x.mean()
+    xm = float(x.mean())     # a plain float: the foot-point Newton then runs on plain floats, not numpy scalars
     V = np.vander(x - xm, deg + 1)
     coef = np.linalg.lstsq(V, y, rcond=None)[0]
     # the polynomial and its two derivatives as plain floats a0 + a1 x + ..., made once per model:
@@ -275,7 +275,8 @@ def _foot_on_flank(c: np.ndarray, model) -> tuple[float, float]:
     """Distance from c to the curve y = f(x) and the leverage of the fit at the foot point
     (Newton on the foot, from x = c_x): the G1 residual's variance is σ² times the leverage."""
     _, xm, inv, (a, a1, a2, powers) = model
-    cx, cy = float(c[0]) - xm, float(c[1])
+    c0, cy = float(c[0]), float(c[1])
+    cx = c0 - xm
     x = cx
     for _ in range(8):
         f, f1, f2 = _horner(a, x), _horner(a1, x), _horner(a2, x)
@@ -286,21 +287,21 @@ def _foot_on_flank(c: np.ndarray, model) -> tuple[float, float]:
         if abs(step) < 1e-13:
             break
     v = x ** powers
-    foot = np.array([x + xm, _horner(a, x)])
-    return float(np.hypot(*(c - foot))), float(v @ inv @ v), foot
+    fx, fy = x + xm, _horner(a, x)
+    return float(np.hypot(c0 - fx, cy - fy)), float(v @ inv @ v), np.array([fx, fy])
 
 
 def _fit_edge_circle(pa: np.ndarray, flanks: list, z: np.ndarray) -> np.ndarray:
     """Levenberg-Marquardt on (cx, cy, r): arc residuals |p − c| − r and the G1 residuals
     (dist(c, flank) − r) / sqrt(leverage); the gradient of a distance to a curve is the unit
     vector from its foot point (the foot moves along the curve, to first order no change)."""
-    n = len(pa)
+    n, m = len(pa), len(pa) + len(flanks)
 
     def system(z):
         cc, rz = z[:2], z[2]
         diff = cc - pa
-        dist = np.maximum(np.linalg.norm(diff, axis=1), 1e-300)
-        res, jac = np.empty(n + len(flanks)), np.empty((n + len(flanks), 3))
+        dist = np.maximum(np.sqrt(np.add.reduce(diff * diff, axis=1)), 1e-300)   # np.linalg.norm's sum, less overhead
+        res, jac = np.empty(m), np.empty((m, 3))
         res[:n] = dist - rz
         jac[:n, :2] = diff / dist[:, None]
         jac[:n, 2] = -1.0
@@ -316,12 +317,16 @@ def _fit_edge_circle(pa: np.ndarray, flanks: list, z: np.ndarray) -> np.ndarray:
     cost = res @ res
     scale = max(abs(z[2]), 1.0)
     lam = 1e-6
+    A, b = np.zeros((m + 3, 3)), np.zeros(m + 3)     # [J; diag(d)] step = [-res; 0], filled in place
+    diag = (np.arange(m, m + 3), np.arange(3))
     for _ in range(100):
         # Levenberg-Marquardt (Marquardt's scaling): along a thin edge the flanks' G1 hardly moves
         # with the centre's place along the camber line, so a plain Gauss-Newton step there is
         # huge, and halving it keeps its bad direction; the damping turns it towards the gradient
-        d = np.sqrt(lam * np.maximum((J * J).sum(axis=0), 1e-12))
-        step = np.linalg.lstsq(np.vstack([J, np.diag(d)]), np.concatenate([-res, np.zeros(3)]), rcond=None)[0]
+        A[:m] = J
+        A[diag] = np.sqrt(lam * np.maximum((J * J).sum(axis=0), 1e-12))
+        np.negative(res, out=b[:m])
+        step = np.linalg.lstsq(A, b, rcond=None)[0]
         if np.abs(step).max() < 1e-12 * scale:       # converged to round-off
             break
         res_new, J_new = system(z + step)
