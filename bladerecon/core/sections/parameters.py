@@ -559,7 +559,9 @@ def measure_section(seg: Segmentation, offsets: tuple[float, ...] = (), n_points
     c, r, x = c[order], r[order], x[order]
     r_max, x_max = _max_circle(x, r)
     lo, hi = seg.curve.domain
-    loop = evaluate_curve(seg.curve, lo + (hi - lo) * np.arange(_LOOP_SAMPLES) / _LOOP_SAMPLES)
+    loop = seg.table_points(_LOOP_SAMPLES)
+    if loop is None:
+        loop = evaluate_curve(seg.curve, lo + (hi - lo) * np.arange(_LOOP_SAMPLES) / _LOOP_SAMPLES)
     thickness_at, thickness_cn = {}, {}
     for off in offsets:
         for name, xx in (("le", off), ("te", chord2 - off)):

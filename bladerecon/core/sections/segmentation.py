@@ -126,6 +126,15 @@ class Segmentation:
     labels: np.ndarray | None = None  # region of every measured point (LE, SUCTION, TE, PRESSURE)
     throat: dict | None = None
     offsets: np.ndarray | None = None  # distance of each measured point from the plane (mm)
+    # the curve at _TABLE equal parameter steps from its start (mm), as segmentation computed it,
+    # with the curve it belongs to: measuring reuses it (:meth:`table_points`) instead of evaluating again
+    table: tuple | None = field(default=None, repr=False, compare=False)
+
+    def table_points(self, samples: int) -> np.ndarray | None:
+        """The curve at ``samples`` equal parameter steps, when segmentation kept that table of this curve."""
+        if self.table is None or self.table[0] is not self.curve or len(self.table[1]) != samples:
+            return None
+        return self.table[1]
 
     def lift(self, q: np.ndarray) -> np.ndarray:
         """Plane points (m, 2) -> 3D, with the out-of-plane offset of a non-planar section
@@ -413,7 +422,7 @@ def segment_section(points: np.ndarray, index: int = 0, span_axis: np.ndarray | 
                   "te_pressure": te_info["t_minus"], "te_suction": te_info["t_plus"]}
     seg = Segmentation(index, frame, q, curve, method, sc.t_points, le_info["t_end"], te_info["t_end"],
                        le, te, le_info["t_peak"], te_info["t_peak"], joints, bool(suction_forward),
-                       offsets=(P - frame.origin) @ frame.normal)
+                       offsets=(P - frame.origin) @ frame.normal, table=(curve, pts))
     if throat is not None:
         info_throat = _throat_point(seg, throat, pts, t)
         # the TE region starts at the throat point on the suction side (seed 000 Fig. 3)
