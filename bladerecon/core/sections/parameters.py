@@ -136,12 +136,12 @@ def fit_circle(q: np.ndarray) -> tuple[np.ndarray, float, float]:
     return c, float(r), float(np.sqrt(np.mean(res ** 2)))
 
 
-def _side_samples(seg: Segmentation, side: int, n: int) -> tuple[np.ndarray, np.ndarray]:
+def _side_parameters(seg: Segmentation, side: int, n: int) -> np.ndarray:
+    """Curve parameters of n stations at equal parameter steps along one side, LE to TE."""
     a, b = seg.side_interval(side)
     lo, hi = seg.curve.domain
     t = a + (b - a) * (np.arange(n) + 0.5) / n
-    t = lo + np.mod(t - lo, hi - lo)
-    return t, evaluate_curve(seg.curve, t)
+    return lo + np.mod(t - lo, hi - lo)
 
 
 def inscribed_circles(seg: Segmentation, stations: int | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -156,11 +156,11 @@ def inscribed_circles(seg: Segmentation, stations: int | None = None) -> tuple[n
     """
     if stations is None:
         stations = int(np.clip(2 * len(seg.points2d), 600, 2000))
-    _, s_pts = _side_samples(seg, SUCTION, int(2.5 * stations))
+    s_pts = evaluate_curve(seg.curve, _side_parameters(seg, SUCTION, int(2.5 * stations)))
     # the circle centres lie far from the sampled side: without compacted node boxes scipy finds
     # the same nearest points in about 60 % of the time (measured; issue 24 §7)
     tree = cKDTree(s_pts, compact_nodes=False)
-    t, _ = _side_samples(seg, PRESSURE, stations)
+    t = _side_parameters(seg, PRESSURE, stations)
     der = curve_derivatives(seg.curve, t, 1)
     p, d1 = der[:, 0], der[:, 1]
     tan = d1 / np.linalg.norm(d1, axis=1, keepdims=True)
