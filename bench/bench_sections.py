@@ -2,13 +2,15 @@
 """Issue 24 figures: section parameters against the analytic truth, beside engeom 0.5 (run from the repo root).
 
     /usr/bin/python3 bench/bench_sections.py [--quick]
+    /usr/bin/python3 bench/bench_sections.py --times [RUNS]   # only the times table (default 5 runs)
 
 Truth: the analytic sample blade (:mod:`bladerecon.samples.blade`, exact in closed form), with
 the issue's proportions (6 sections, chord 40 -> 32 mm, LE radius 0.55 -> 0.30 mm, TE radius
 0.40 -> 0.25 mm). Cases: 2000 / 400 / 120 points a section, 0 and 2 µm noise (each
 coordinate), even (equal arc length, random start) and random spacing (uniform random arc
 length positions). Errors are the largest over the 6 sections. Times: both tools as processes
-on the same files (6 x 2000 points, 21 x 240 points), best of 3.
+on the same files (6 x 2000 points, 21 x 240 points), runs alternating between the tools, min and
+median. ``--times`` measures only these and rewrites only the times table (and ``times`` in the JSON).
 
 The peer, engeom 0.5's ``airfoil2`` (full-round edges, flow direction given), is installed from
 PyPI into a bench-only venv ``.cache/bench-venv`` by this script (``python3 -m venv
@@ -21,6 +23,7 @@ import json
 import os
 import platform
 import resource
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -138,8 +141,10 @@ def peer(py: Path | None, secs: list[np.ndarray], tmp: Path, mode: str = "raw"
     return res["sections"], res["seconds"]
 
 
-def process_times(py: Path | None, tmp: Path) -> list[dict]:
-    """Both tools as processes on the same files (wall time, best of 3)."""
+def process_times(py: Path | None, tmp: Path, runs: int = 3) -> list[dict]:
+    """Both tools as processes on the same files, ``runs`` times each, the tools alternating so that
+    both see the same load: wall clock and CPU (user + system), min (``bladerecon``, ``bladerecon_cpu``)
+    and median (``..._median``)."""
     rows = []
     for n_sec, n in ((6, 2000), (21, 240)):
         secs = sections(n_sec, n, "even", 0.002, seed=5)
@@ -152,22 +157,53 @@ def process_times(py: Path | None, tmp: Path) -> list[dict]:
                                "--lenient", "--json", "--quiet"]}
         if py is not None:
             cmds["engeom"] = [str(py), str(PEER), str(tmp / f"t{n_sec}.npz"), str(tmp / "x.json"), "1,0"]
-        row = {"case": f"{n_sec} x {n}"}
-        for name, cmd in cmds.items():
-            best, best_cpu = np.inf, np.inf
-            for _ in range(3):
+        row = {"case": f"{n_sec} x {n}", "runs": runs}
+        wall: dict = {name: [] for name in cmds}
+        cpu: dict = {name: [] for name in cmds}
+        for _ in range(runs):
+            for name, cmd in cmds.items():
                 r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
                 t0 = time.perf_counter()
                 subprocess.run(cmd, check=True, capture_output=True, env=env, timeout=600)
-                best = min(best, time.perf_counter() - t0)
+                wall[name].append(time.perf_counter() - t0)
                 r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
-                best_cpu = min(best_cpu, (r1.ru_utime - r0.ru_utime) + (r1.ru_stime - r0.ru_stime))
-            row[name], row[name + "_cpu"] = best, best_cpu
+                cpu[name].append((r1.ru_utime - r0.ru_utime) + (r1.ru_stime - r0.ru_stime))
+        for name in cmds:
+            row[name], row[name + "_cpu"] = min(wall[name]), min(cpu[name])
+            row[name + "_median"], row[name + "_cpu_median"] = statistics.median(wall[name]), statistics.median(cpu[name])
         rows.append(row)
     return rows
 
 
+def _load() -> str:
+    return "load average " + " ".join(f"{v:.2f}" for v in os.getloadavg()) + f" on {os.cpu_count()} CPUs"
+
+
+def times_only(runs: int) -> None:
+    """``--times``: measure the process times again and replace only the times table (and ``times``
+    in the JSON); the error tables stay as they were."""
+    py = peer_python()
+    before = _load()
+    with tempfile.TemporaryDirectory() as d:
+        times = process_times(py, Path(d), runs)
+    load = f"{before} before, {_load()} after"
+    md = OUT / "sections.md"
+    text = md.read_text()
+    start = text.find(TIMES_HEAD)
+    text = (text[:start] if start >= 0 else text + "\n").rstrip("\n") + "\n\n" + "\n".join(_times_table(times, load)) + "\n"
+    print(text[text.find(TIMES_HEAD):])
+    md.write_text(text)
+    js = OUT / "sections.json"
+    data = json.loads(js.read_text()) if js.exists() else {"cases": []}
+    data["times"], data["times_load"] = times, load
+    js.write_text(json.dumps(data, indent=1))
+
+
 def main() -> None:
+    if "--times" in sys.argv:
+        rest = sys.argv[sys.argv.index("--times") + 1:]
+        times_only(int(rest[0]) if rest and rest[0].isdigit() else 5)
+        return
     quick = "--quick" in sys.argv
     py = peer_python()
     tr = truth(6)
@@ -191,8 +227,10 @@ def main() -> None:
                     print(json.dumps(row), file=sys.stderr)
             if quick:
                 break
-        times = process_times(py, tmp)
-    write(results, times, py is not None)
+        before = _load()
+        times = process_times(py, tmp, 5)
+        load = f"{before} before, {_load()} after"
+    write(results, times, py is not None, load)
 
 
 def _cell(e: dict | None, k: str) -> str:
@@ -201,7 +239,27 @@ def _cell(e: dict | None, k: str) -> str:
     return f"{e[k]:.3g}"
 
 
-def write(results: list[dict], times: list[dict], have_peer: bool) -> None:
+TIMES_HEAD = "Times as processes"
+
+
+def _times_table(times: list[dict], load: str) -> list[str]:
+    """The times table: min and median of the runs, wall clock and CPU (user + system)."""
+    runs = times[0].get("runs", 3) if times else 3
+    lines = [f"{TIMES_HEAD} (s, {runs} runs each, the tools alternating; 2 µm noise, even spacing; "
+             f"{datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC, {load}; wall clock and CPU, user + system, "
+             "min / median: the machine may be shared, CPU is the steadier figure):", "",
+             "| case | bladerecon CPU s | bladerecon wall s | engeom CPU s | engeom wall s |", "|---|---|---|---|---|"]
+    nan = float("nan")
+
+    def cell(t: dict, key: str) -> str:
+        return f"{t.get(key, nan):.2f} / {t.get(key + '_median', t.get(key, nan)):.2f}"
+    for t in times:
+        lines.append(f"| {t['case']} | {cell(t, 'bladerecon_cpu')} | {cell(t, 'bladerecon')} | "
+                     f"{cell(t, 'engeom_cpu')} | {cell(t, 'engeom')} |")
+    return lines
+
+
+def write(results: list[dict], times: list[dict], have_peer: bool, load: str = "") -> None:
     lines = ["# Section parameters against the analytic truth (issue 24)", "",
              f"{datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC, {platform.machine()}, Python "
              f"{platform.python_version()}, numpy {np.__version__}. Largest error over 6 sections; radii in % "
@@ -221,18 +279,12 @@ def write(results: list[dict], times: list[dict], have_peer: bool) -> None:
             cells = [str(r["points"]), f"{r['noise_um']:g}", r["spacing"]]
             cells += [_cell(e, k) for k in KEYS] + [str(e["null"]), str(e["failed"]), f"{r[key + '_s']:.2f}"]
             lines.append("| " + " | ".join(cells) + " |")
-    lines += ["", "Times as processes (s, best of 3; 2 µm noise, even spacing; wall clock and CPU, user + system: "
-              "the machine may be shared, CPU is the steadier figure):", "",
-              "| case | bladerecon wall s | bladerecon CPU s | engeom wall s | engeom CPU s |", "|---|---|---|---|---|"]
-    nan = float("nan")
-    for t in times:
-        lines.append(f"| {t['case']} | {t['bladerecon']:.2f} | {t['bladerecon_cpu']:.2f} | "
-                     f"{t.get('engeom', nan):.2f} | {t.get('engeom_cpu', nan):.2f} |")
+    lines += [""] + _times_table(times, load)
     text = "\n".join(lines) + "\n"
     print(text)
     OUT.mkdir(parents=True, exist_ok=True)
     (OUT / "sections.md").write_text(text)
-    (OUT / "sections.json").write_text(json.dumps({"cases": results, "times": times}, indent=1))
+    (OUT / "sections.json").write_text(json.dumps({"cases": results, "times": times, "times_load": load}, indent=1))
 
 
 if __name__ == "__main__":
