@@ -94,7 +94,11 @@ def _run(name: str, repo: Path, log) -> dict:
     for mid in survived:
         show = subprocess.run([str(MUTMUT), "show", str(mid)], cwd=repo, env=env, capture_output=True, text=True)
         survivors.append((mid, (show.stdout or show.stderr).strip()))
-    odd_exits = odd.read_text().split() if odd.exists() else []
+    # exit codes other than 0/1, and runs killed by mutmut's timer (a start without an end): such a
+    # kill is read by mutmut as a survivor unless it notices the timeout (seen under heavy load)
+    events = odd.read_text().splitlines() if odd.exists() else []
+    odd_exits = [e.split()[1] for e in events if e.startswith("end") and e.split()[1] not in ("0", "1")]
+    odd_exits += ["killed"] * (sum(e == "start" for e in events) - sum(e.startswith("end") for e in events))
     tested = counts["killed"] + counts["survived"] + counts["timeout"]
     score = (counts["killed"] + counts["timeout"]) / tested if tested else float("nan")
     return {"name": name, "paths": paths, "tests": " ".join([tests, *extra]), "counts": counts, "score": score,
@@ -179,10 +183,12 @@ def _write_table(head: str) -> Path:
 def _run_tests(args: list[str]) -> int:
     """The mutmut runner: pytest on ``args``; 0 if every test passed, else 1 (and the odd code logged)."""
     env = dict(os.environ, PYTHONDONTWRITEBYTECODE="1")
+    log = Path.cwd() / ".mutation-odd-exits"
+    with open(log, "a") as f:                 # "start" without its end: mutmut's timer killed this run
+        f.write("start\n")
     rc = subprocess.run([PYTHON, "-m", "pytest", "-x", "-q", "-p", "no:cacheprovider", *args], env=env).returncode
-    if rc not in (0, 1):
-        with open(Path.cwd() / ".mutation-odd-exits", "a") as f:
-            f.write(f"{rc}\n")
+    with open(log, "a") as f:
+        f.write(f"end {rc}\n")
     return 0 if rc == 0 else 1
 
 
