@@ -221,18 +221,6 @@ def _inside(pts: np.ndarray, loop: np.ndarray) -> np.ndarray:
     return ((pts - mid[i]) * out[i]).sum(axis=1) < 0
 
 
-def _edge_points(seg: Segmentation, region: int, trim: float = 0.15) -> np.ndarray:
-    """Measured points of an edge region by the curvature joints (the old, region-only evidence),
-    without the ``trim`` fraction next to each joint when enough remain."""
-    a, b = seg.region_interval(region)
-    w = b - a
-    rel = np.mod(seg.t_points - a, seg.period)
-    m = (rel >= trim * w) & (rel <= (1 - trim) * w)
-    if m.sum() < 2 * MIN_EDGE_POINTS:
-        m = rel <= w
-    return seg.points2d[m]
-
-
 @dataclass(frozen=True)
 class EdgeCircle:
     """An edge circle fitted with all the evidence (in-plane mm): centre, radius, the measured
