@@ -33,7 +33,7 @@ PYTHON = "/usr/bin/python3"
 MODULES: dict[str, tuple[str, ...]] = {
     "projection": ("bladerecon/core/geometry/projection/", "tests/test_projection.py"),
     "alignment": ("bladerecon/core/analysis/alignment.py", "tests/test_alignment_contract.py tests/test_alignment.py"),
-    "section_curves": ("bladerecon/core/surface/section_curves.py", "tests/test_reconstruct.py",
+    "section_curves": ("bladerecon/core/surface/section_curves.py", "tests/test_section_curves_contract.py tests/test_reconstruct.py",
                        "--deselect tests/test_reconstruct.py::test_plan_layout_within_50_um_of_truth "
                        "--deselect tests/test_reconstruct.py::test_dense_noisy_sections_within_10_um_of_truth "
                        "--deselect tests/test_reconstruct.py::test_angle_pairing_seed000_gives_equal_counts_and_a_close_surface"),
