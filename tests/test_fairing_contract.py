@@ -1,0 +1,388 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
+"""The contract of ``core/sections/fairing.py`` on shapes with known answers (circles,
+ellipses, lines: closed forms), with counts and parameters made by hand. Fast (a few seconds,
+the edge model left out except where it is the subject): ``make mutation`` runs it per mutant
+before the slower ``tests/test_fairing.py``.
+"""
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+
+from bladerecon.core.errors import BladeReconError
+from bladerecon.core.geometry.bspline import evaluate_curve
+from bladerecon.core.sections import fairing as fr
+
+
+def circle(n=400, r=10.0, start=0.0):
+    th = start + np.linspace(0, 2 * np.pi, n, endpoint=False)
+    return np.column_stack([r * np.cos(th), r * np.sin(th), np.zeros(n)]), th
+
+
+def ellipse(n=400, a=20.0, b=3.0, angle=0.0):
+    th = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    P = np.column_stack([a * np.cos(th), b * np.sin(th), np.zeros(n)])
+    R = np.array([[np.cos(angle), -np.sin(angle), 0], [np.sin(angle), np.cos(angle), 0], [0, 0, 1]])
+    return P @ R.T, th
+
+
+def radial_distance(P, r=10.0):
+    return np.abs(np.linalg.norm(P[:, :2], axis=1) - r)
+
+
+# --------------------------------------------------------------------------- edge zones
+@pytest.mark.parametrize("angle", [0.0, 0.6])
+def test_edge_zones_are_the_ends_of_the_principal_direction(angle):
+    P, th = ellipse(angle=angle)
+    x = 20.0 * np.cos(th)                      # the coordinate along the major axis, known
+    for f in (0.04, 0.1):
+        want = (x < -20 + f * 40 - 1e-9) | (x > 20 - f * 40 + 1e-9)
+        got = fr.edge_zones(P, f)
+        border = np.abs(np.abs(x) - (20 - f * 40)) < 1e-6
+        assert np.array_equal(got[~border], want[~border])
+    assert fr.edge_zones(P).sum() == fr.edge_zones(P, 0.04).sum()
+
+
+# --------------------------------------------------------------------------- turning
+def test_turning_of_a_circle_is_its_angle_step_whatever_the_chord():
+    for n, r in ((400, 10.0), (2000, 10.0), (64, 3.0)):
+        P, _ = circle(n, r)
+        assert np.allclose(fr._robust_turning(P), 2 * np.pi / n, rtol=1e-9)
+
+
+def test_turning_of_a_noisy_line_is_measured_over_half_a_millimetre():
+    # a closed, long thin loop: two straight sides 20 mm long, 0.01 mm spacing, 1 µm noise.
+    # Over chords of k = 50 steps (0.5 mm) the noise reads as ~σ√6/(k·h)/k ≈ 1e-4 rad a step;
+    # over single steps it would read as ~σ√6/h ≈ 0.25 rad
+    x = np.arange(0, 20, 0.01)
+    top = np.column_stack([x, np.full(x.size, 0.5), np.zeros(x.size)])
+    bottom = np.column_stack([x[::-1], np.full(x.size, -0.5), np.zeros(x.size)])
+    P = np.vstack([top, bottom])
+    P[:, 1] += np.random.default_rng(0).normal(0, 0.001, len(P))
+    turn = fr._robust_turning(P)
+    flat = (np.abs(P[:, 0] - 10) < 8)
+    assert np.median(turn[flat]) < 3e-4
+    assert np.median(fr._robust_turning(P, baseline=0.01)[flat]) > 0.05
+
+
+def test_turning_is_blind_to_a_short_bump():
+    P, _ = circle(400)
+    B = P.copy()
+    B[200:203] *= 1.002                              # 20 µm out over 3 points
+    assert np.allclose(fr._robust_turning(B)[190:215], 2 * np.pi / 400, rtol=0.05)
+
+
+# --------------------------------------------------------------------------- knots
+def test_density_knots_one_per_point_or_one_per_tenth_point():
+    t = np.linspace(0, 1, 50, endpoint=False)
+    k1 = fr._density_knots(t, np.ones(50))
+    assert np.allclose(k1, np.concatenate([t, [1.0]]))
+    k10 = fr._density_knots(t, np.full(50, 0.1))
+    # cumulative density passes a whole number at points 10, 20, 30, 40 (and the first point)
+    assert np.allclose(k10, np.concatenate([t[[0, 10, 20, 30, 40]], [1.0]]))
+    # the order of the input does not matter
+    perm = np.random.default_rng(3).permutation(50)
+    assert np.array_equal(fr._density_knots(t[perm], np.full(50, 0.1)[perm]), k10)
+    # a parameter at 0 is one knot, not two
+    assert np.sum(k1 == 0.0) == 1 and k1[-1] == 1.0
+
+
+def test_chord_parameters_of_good_share_a_gap_equally():
+    P = np.array([[0, 0, 0], [1, 0, 0], [5, 7, 0], [3, 0, 0], [3, 3, 0], [0, 3, 0]], float)
+    bad = np.array([False, False, True, False, False, False])
+    # chords of good neighbours: 0-1: 1, 1-3: 2 (over 2 steps: 1 each), 3-4: 3, 4-5: 3, 5-0: 3
+    seg = np.array([1, 1, 1, 3, 3, 3], float)
+    want = np.concatenate([[0], np.cumsum(seg)[:-1]]) / seg.sum()
+    assert np.allclose(fr.chord_parameters_of_good(P, bad), want, atol=1e-15)
+    # the first point bad: its step is part of the last gap
+    bad0 = np.array([True, False, False, False, False, False])
+    P0 = P.copy()
+    P0[2] = [2, 0, 0]
+    # good 1..5: 1-2: 1, 2-3: 1, 3-4: 3, 4-5: 3, 5-1 (over 2 steps): |(0,3)-(1,0)| = √10
+    seg0 = np.array([np.sqrt(10) / 2, 1, 1, 3, 3, np.sqrt(10) / 2])
+    want0 = np.concatenate([[0], np.cumsum(seg0)[:-1]]) / seg0.sum()
+    assert np.allclose(fr.chord_parameters_of_good(P0, bad0), want0, atol=1e-15)
+    # none bad: plain closed chord-length
+    ch = np.linalg.norm(np.roll(P0, -1, 0) - P0, axis=1)
+    assert np.allclose(fr.chord_parameters_of_good(P0, np.zeros(6, bool)),
+                       np.concatenate([[0], np.cumsum(ch)[:-1]]) / ch.sum(), atol=1e-15)
+
+
+# --------------------------------------------------------------------------- fair fit
+def test_fair_fit_of_a_circle_is_the_circle():
+    P, _ = circle(400)
+    curve, t, d = fr.fair_fit(P)
+    assert d.max() < 5e-6                         # mm: a cubic on ≤ 10 points a span of a 10 mm circle
+    C = evaluate_curve(curve, np.linspace(0, 1, 5000, endpoint=False))
+    assert radial_distance(C).max() < 5e-6
+    # distances are those of the points to their feet at t
+    assert np.allclose(d, np.linalg.norm(evaluate_curve(curve, t) - P, axis=1), atol=1e-15)
+
+
+def test_fair_fit_knot_counts_follow_the_density_rules():
+    # a circle of radius 10: turning 2π/400 = 0.0157 rad a point; with knot_turn 0.1 that asks
+    # for 0.157 knots a point, above 1/points_per_pole = 0.1; the arc rule (0.157 mm / 4 mm)
+    # asks for less; the edge zones (8 % of the points about each end) one a point
+    P, _ = circle(400)
+    curve, _, _ = fr.fair_fit(P)
+    zones = fr.edge_zones(P).sum()
+    expected = zones + 0.157 * (400 - zones)
+    assert abs(curve.n_poles - expected) <= 3, (curve.n_poles, expected)
+    # turning rule off (knot_turn huge), arc rule off: one per 10 points on the flanks
+    c2, _, _ = fr.fair_fit(P, knot_turn=1e9, knot_length=1e9)
+    assert abs(c2.n_poles - (zones + (400 - zones) / 10)) <= 2, c2.n_poles
+    c3, _, _ = fr.fair_fit(P, knot_turn=1e9, knot_length=1e9, points_per_pole=20)
+    assert abs(c3.n_poles - (zones + (400 - zones) / 20)) <= 2, c3.n_poles
+    # the arc rule: a knot per 0.157 mm / knot_length = 0.5 a point
+    c4, _, _ = fr.fair_fit(P, knot_turn=1e9, knot_length=0.157 * 2)
+    assert abs(c4.n_poles - (zones + (400 - zones) / 2)) <= 2, c4.n_poles
+    # the edge fraction
+    c5, _, _ = fr.fair_fit(P, knot_turn=1e9, knot_length=1e9, edge_fraction=0.1)
+    z5 = fr.edge_zones(P, 0.1).sum()
+    assert abs(c5.n_poles - (z5 + (400 - z5) / 10)) <= 2, c5.n_poles
+    # never fewer than 8 spans
+    small, _ = circle(40)
+    c6, _, _ = fr.fair_fit(small, knot_turn=1e9, knot_length=1e9, points_per_pole=1000, edge_fraction=0.0)
+    assert c6.n_poles == 8
+
+
+def test_a_point_of_weight_zero_does_not_pull_the_fit():
+    P, nrm = flank_section()
+    Q = P.copy()
+    Q[100:103] += 0.1 * nrm[100:103]                 # 0.1 mm out
+    w = np.ones(400)
+    w[100:103] = 0.0
+    curve, t, d = fr.fair_fit(Q, w)
+    assert np.allclose(d[100:103], 0.1, atol=2e-3)
+    assert np.delete(d, [100, 101, 102]).max() < 5e-4   # 0.5 µm: the gap of 3 points is bridged smoothly
+    # weighted in: it pulls
+    _, _, d1 = fr.fair_fit(Q)
+    assert d1[101] < 0.08
+
+
+# --------------------------------------------------------------------------- detection
+A, B = 20.0, 5.0          # the test section: an ellipse, its flanks (t about 90° and 270°) far from the edge zones
+
+
+def flank_section(n=400):
+    th = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    P = np.column_stack([A * np.cos(th), B * np.sin(th), np.zeros(n)])
+    nrm = np.column_stack([B * np.cos(th), A * np.sin(th), np.zeros(n)])
+    return P, nrm / np.linalg.norm(nrm, axis=1, keepdims=True)
+
+
+_DENSE = None
+
+
+def ellipse_distance(Q):
+    """Distance to the true ellipse: nearest of 400 000 samples (spacing 0.3 µm: error < 1e-8 mm)."""
+    global _DENSE
+    from scipy.spatial import cKDTree
+    if _DENSE is None:
+        th = np.linspace(0, 2 * np.pi, 400_000, endpoint=False)
+        _DENSE = cKDTree(np.column_stack([A * np.cos(th), B * np.sin(th)]))
+    return _DENSE.query(np.asarray(Q)[:, :2])[0]
+
+
+def bumped(run=(100, 3), height=0.010, n=400):
+    """The flank section with a run of points moved out along the true normal by ``height`` mm."""
+    P, nrm = flank_section(n)
+    first, k = run
+    idx = (first + np.arange(k)) % n
+    P[idx] += height * nrm[idx]
+    return P, idx
+
+
+def test_a_run_above_the_threshold_is_found_and_nothing_else():
+    for run, h in (((100, 1), 0.010), ((90, 3), 0.015), ((298, 4), 0.010), ((60, 5), 0.030)):
+        P, idx = bumped(run, h)
+        bad, d, curve, t = fr.detect_bad_points(P, edges=False)
+        assert np.array_equal(np.flatnonzero(bad), np.sort(idx)), (run, h, np.flatnonzero(bad))
+        assert np.allclose(d[idx], h, atol=1.5e-3)                   # distance to the fit of the good points
+        assert np.delete(d, idx).max() <= fr.DEFAULT_THRESHOLD
+        C = evaluate_curve(curve, np.linspace(0, 1, 4000, endpoint=False))
+        assert ellipse_distance(C).max() < 5e-4                      # the fit follows the ellipse, not the run
+
+
+def test_threshold_decides():
+    assert fr.DEFAULT_THRESHOLD == 0.003
+    P, idx = bumped((110, 1), 0.0045)
+    assert np.flatnonzero(fr.detect_bad_points(P, edges=False)[0]).tolist() == idx.tolist()
+    assert not fr.detect_bad_points(P, threshold=0.006, edges=False)[0].any()
+    P2, _ = bumped((110, 1), 0.002)
+    assert not fr.detect_bad_points(P2, edges=False)[0].any()
+    # a clean circle: nothing
+    assert not fr.detect_bad_points(flank_section()[0], edges=False)[0].any()
+
+
+def test_worst_first_keeps_the_neighbours_of_a_big_bump():
+    # 0.2 mm out at one point drags the first fit; its neighbours must not be flagged
+    P, idx = bumped((290, 1), 0.2)
+    bad = fr.detect_bad_points(P, edges=False)[0]
+    assert np.flatnonzero(bad).tolist() == idx.tolist()
+
+
+def test_too_few_points_and_noise_above_the_threshold_are_user_errors():
+    P, _ = circle(11)
+    with pytest.raises(BladeReconError) as e:
+        fr.detect_bad_points(P, edges=False)
+    assert re.fullmatch(r"fairing needs at least 12 points on a section, got 11", str(e.value))
+    fr.detect_bad_points(circle(12)[0], edges=False)             # 12 is enough
+    Q, _ = circle(400)
+    Q[:, :2] *= (1 + np.random.default_rng(1).normal(0, 0.001, 400))[:, None]   # 10 µm noise
+    with pytest.raises(BladeReconError) as e:
+        fr.detect_bad_points(Q, name="S3", edges=False)
+    m = re.fullmatch(r"section S3: more than a quarter of the points are farther than 3\.0 µm from a fair curve "
+                     r"\(median distance (\d+\.\d) µm\): the threshold is below this data's noise; "
+                     r"try --fair-threshold (\d\.\d{3})", str(e.value))
+    assert m, str(e.value)
+    med = float(m.group(1))
+    assert 2.0 < med < 12.0 and float(m.group(2)) == pytest.approx(max(5 * med / 1000, 0.003), abs=6e-4)
+    with pytest.raises(BladeReconError) as e:
+        fr.detect_bad_points(Q, edges=False)
+    assert str(e.value).startswith("more than a quarter")
+
+
+# --------------------------------------------------------------------------- runs
+def test_bad_runs_round_the_loop():
+    assert fr.bad_runs(np.zeros(6, bool)) == []
+    assert fr.bad_runs(np.ones(6, bool)) == [(0, 6)]
+    b = np.array([1, 1, 0, 0, 1, 0, 1, 1], bool)
+    assert fr.bad_runs(b) == [(4, 1), (6, 4)]                      # 6, 7, 0, 1 is one run across the end
+    assert fr.bad_runs(np.array([0, 1, 1, 0, 0, 1], bool)) == [(1, 2), (5, 1)]
+
+
+def test_replaced_points_lie_on_the_section():
+    for run, h in (((100, 3), 0.05), ((298, 4), 0.02), ((80, 1), 0.3)):
+        P, idx = bumped(run, h)
+        clean, _ = flank_section()
+        bad = np.zeros(len(P), bool)
+        bad[idx] = True
+        curve, t, _ = fr.fair_fit(P, (~bad).astype(float), t=fr.chord_parameters_of_good(P, bad))
+        out = fr.replace_runs(P, bad, curve, t)
+        # within 0.5 µm (a sixth of the 3 µm threshold) of the true section: the auxiliary cubic
+        # across a gap of 2-5 steps of 0.3 mm on a flank of radius ≥ 1.25 mm
+        assert ellipse_distance(out[idx]).max() < 5e-4, run
+        assert np.array_equal(np.delete(out, idx, axis=0), np.delete(P, idx, axis=0))
+        # at equal chord steps between the good neighbours: on the flank the points were evenly
+        # spaced in angle, nearly in arc length: within 2 µm of the points they replace
+        assert np.linalg.norm(out[idx] - clean[idx], axis=1).max() < 2e-3, run
+
+
+def test_replacing_needs_four_good_points():
+    P, _ = flank_section(20)
+    bad = np.ones(20, bool)
+    bad[[0, 5, 10]] = False
+    curve, t, _ = fr.fair_fit(P)
+    with pytest.raises(BladeReconError) as e:
+        fr.replace_runs(P, bad, curve, t)
+    assert re.fullmatch(r"too few good points left on the section to build the auxiliary curves", str(e.value))
+
+
+# --------------------------------------------------------------------------- the whole section
+def test_fair_section_reports_what_it_moved():
+    P, idx = bumped((120, 2), 0.012)
+    s = fr.fair_section(P, edges=False)
+    assert np.array_equal(s.original, P) and s.runs == ((120, 2),)
+    assert np.flatnonzero(s.bad).tolist() == [120, 121]
+    assert np.array_equal(s.displacement, np.linalg.norm(s.faired - P, axis=1))
+    assert np.allclose(s.displacement[idx], 0.012, atol=2e-4)
+    assert np.delete(s.displacement, idx).max() == 0.0
+    assert ellipse_distance(s.faired).max() < 5e-4
+    assert not s.by_edge_model.any()
+    # nothing bad: the points come back as they were (a copy)
+    c, _ = flank_section()
+    clean = fr.fair_section(c, edges=False)
+    assert np.array_equal(clean.faired, c) and clean.faired is not c and clean.runs == ()
+
+
+def test_a_move_beyond_the_limit_is_refused_by_name():
+    P, idx = bumped((80, 1), 0.3)
+    assert fr.DEFAULT_MAX_MOVE == 0.5
+    fr.fair_section(P, edges=False)                                 # 0.3 mm: within 0.5
+    with pytest.raises(BladeReconError) as e:
+        fr.fair_section(P, max_move=0.2, name="7", edges=False)
+    m = re.fullmatch(r"fairing refused: section 7, point 80 would move (\d\.\d{4}) mm \(limit 0\.2 mm\); "
+                     r"remove that point or raise --fair-limit", str(e.value))
+    assert m and float(m.group(1)) == pytest.approx(0.3, abs=1e-3), str(e.value)
+    with pytest.raises(BladeReconError) as e:
+        fr.fair_section(P, max_move=0.2, edges=False)
+    assert str(e.value).startswith("fairing refused: point 80 would move")
+
+
+def test_describe_runs_gives_lines_and_chord_fractions():
+    P, th = ellipse(400)                          # LE at x = 20 (the first point), TE at x = -20
+    x = 20 * np.cos(th)
+    bad = np.zeros(400, bool)
+    bad[[5, 6, 7, 200]] = True
+    disp = np.zeros(400)
+    disp[[5, 6, 7, 200]] = [0.01, 0.03, 0.02, 0.05]
+    lines = np.arange(400) * 2 + 10
+    runs = fr.describe_runs(P, bad, disp, lines)
+    frac = (20 - x) / 40                          # 0 at the first point's end
+    assert runs == [
+        {"first_line": 20, "last_line": 24, "points": 3,
+         "chord_fraction": [round(float(frac[5]), 4), round(float(frac[7]), 4)], "displacement_mm": 0.03},
+        {"first_line": 410, "last_line": 410, "points": 1,
+         "chord_fraction": [round(float(frac[200]), 4)] * 2, "displacement_mm": 0.05}]
+    # without lines: indices; a loop starting at the other end counts from there
+    rolled = np.roll(P, -200, axis=0)
+    r2 = fr.describe_runs(rolled, np.roll(bad, -200), np.roll(disp, -200))
+    assert [r["first_line"] for r in r2] == [205, 0]        # found from the first good point on
+    assert r2[1]["chord_fraction"] == [0.0, 0.0] and r2[0]["chord_fraction"][0] == round(float(1 - frac[5]), 4)
+
+
+# --------------------------------------------------------------------------- the edge model's part
+def test_edge_runs_go_to_the_edge_model_and_flank_runs_to_the_fair_fit():
+    # the analytic sample blade (round LE and TE, known profile): one run of 2 points 15 µm out
+    # on the LE, one of 2 points on the flank; 400 points at even spacing, no noise
+    from scipy.spatial import cKDTree
+
+    from bladerecon.samples.blade import SampleBlade, t_at_length_fraction
+    blade = SampleBlade()
+    h = 0.5                                          # mid-span fraction
+    f = (0.37 + np.arange(400)) / 400
+    t = t_at_length_fraction(blade, h, f)
+    P = blade.point(h, t)
+    N = blade.normal(h, t)
+    N[:, 2] = 0.0
+    N /= np.linalg.norm(N, axis=1, keepdims=True)
+    le, te = blade.le_te(h)
+    chord = (P - le) @ (te - le) / ((te - le) @ (te - le))
+    le_run = np.array([2, 3])                       # chord fractions 0.0016 and 0.0047: on the LE arc
+    assert np.all(chord[le_run] < 0.01)
+    flank_run = np.array([100, 101])
+    Q = P.copy()
+    Q[le_run] += 0.015 * N[le_run]
+    Q[flank_run] += 0.015 * N[flank_run]
+    s = fr.fair_section(Q, name="LE")
+    assert np.flatnonzero(s.bad).tolist() == sorted(le_run.tolist() + flank_run.tolist())
+    assert np.flatnonzero(s.by_edge_model).tolist() == sorted(le_run.tolist())
+    assert len(s.edges) == 2
+    # every faired point back on the true profile (dense samples of it: spacing 1 µm)
+    dense = blade.point(h, t_at_length_fraction(blade, h, np.linspace(0, 1, 200_000, endpoint=False)))
+    back = cKDTree(dense[:, :2]).query(s.faired[:, :2])[0]
+    assert back.max() < 2e-3, back.max()                # 2 µm: within the 3 µm threshold
+    assert np.array_equal(s.faired[~s.bad], Q[~s.bad])
+    # the distances reported in the edge zones are the edge model's: 15 µm at the run
+    assert np.allclose(s.distance[le_run], 0.015, atol=2e-3)
+    # without the edge model the fair fit alone follows the LE run (a knot at every edge point)
+    alone = fr.fair_section(Q, edges=False)
+    assert not alone.bad[le_run].all()
+
+
+@pytest.mark.xfail(strict=True, reason="known miss (2026-11-27): a 2-point run 15 µm outward straddling the LE "
+                   "apex is absorbed by the edge circle (30 µm, inward, 1 or 3 points are found)")
+def test_a_two_point_outward_run_on_the_le_apex_is_found():
+    from bladerecon.samples.blade import SampleBlade, t_at_length_fraction
+    blade = SampleBlade()
+    t = t_at_length_fraction(blade, 0.5, (0.37 + np.arange(400)) / 400)
+    P = blade.point(0.5, t)
+    N = blade.normal(0.5, t)
+    N[:, 2] = 0.0
+    N /= np.linalg.norm(N, axis=1, keepdims=True)
+    Q = P.copy()
+    Q[[0, 1]] += 0.015 * N[[0, 1]]                  # chord fractions 0.0001 and 0.0016
+    assert np.flatnonzero(fr.fair_section(Q).bad).tolist() == [0, 1]
