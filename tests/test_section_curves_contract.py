@@ -390,3 +390,25 @@ def test_fairness_is_relative_to_the_data_term():
     b = sc.fit_section_approximate(0, 10 * P, tolerance=0.5, fairness=0.1)
     assert a.curve.n_poles == b.curve.n_poles
     assert np.allclose(10 * a.curve.poles, b.curve.poles, atol=1e-6)
+
+
+def test_noise_of_a_loop_out_of_its_plane_is_still_sigma():
+    # a stream-surface-like loop: a circle of 10 mm whose z swings ±4 mm (slope up to 0.8),
+    # noisy along its in-plane radial direction. The in-plane normal is unit length wherever the
+    # loop leaves the plane; a normal shortened by the slope reads sigma ~25 % low
+    th = np.linspace(0, 2 * np.pi, 400, endpoint=False)
+    P = np.column_stack([10 * np.cos(th), 10 * np.sin(th), 4 * np.sin(2 * th)])
+    radial = np.column_stack([np.cos(th), np.sin(th), np.zeros(400)])
+    sigma = 0.002
+    got = [sc.estimate_noise(P + radial * np.random.default_rng(s).normal(0, sigma, (400, 1))) for s in range(40)]
+    assert abs(np.mean(got) / sigma - 1) < 0.03, np.mean(got) / sigma
+
+
+def test_results_are_frozen():
+    import dataclasses
+    s = sc.fit_section_interpolate(0, ellipse(20)[0])
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        s.index = 1
+    c = sc.choose_method([ellipse(60)[0]])
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        c.method = "approximate"
