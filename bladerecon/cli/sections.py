@@ -6,7 +6,9 @@ position, LE/TE radius, inlet/outlet metal angles, thickness at given offsets
 (:mod:`bladerecon.core.sections.parameters`). With ``--nominal`` (STEP/IGES/BREP/FCStd cut in
 the plane of every measured section, or a dense section file) the nominal's values and the
 differences measured − nominal. ``--plots DIR`` writes one PNG per section with the
-segmentation coloured. Lengths mm, angles degrees.
+segmentation coloured. A non-planar section on a surface of revolution about the machine axis
+(``--axis``, ``--axis-point``; default z through the origin) is also measured in m′–θ (the
+``meridional`` block). Lengths mm, angles degrees.
 """
 from __future__ import annotations
 
@@ -20,7 +22,7 @@ from bladerecon.core.errors import BladeReconError
 from bladerecon.core.io.outputs import (Outputs, check_coordinates, check_input, check_samples, escaped,
                                         finite, one_line_errors, positive, shown)
 
-__all__ = ["add_parser", "run_sections", "flow_direction"]
+__all__ = ["add_parser", "run_sections", "flow_direction", "machine_axis", "axis_point"]
 
 SHAPE_SUFFIXES = (".step", ".stp", ".iges", ".igs", ".brep", ".brp", ".fcstd")
 
@@ -45,6 +47,27 @@ def flow_direction(text: str) -> np.ndarray:
         raise argparse.ArgumentTypeError(f"'{shown(text)}': give the flow direction as three numbers X,Y,Z "
                                          "(not all zero), e.g. 1,0,0")
     return v / np.linalg.norm(v)
+
+
+def axis_point(text: str) -> np.ndarray:
+    """argparse ``type`` of ``--axis-point X,Y,Z``: a point (mm) on the machine axis."""
+    try:
+        v = np.array([float(x) for x in text.split(",")], float)
+    except ValueError:
+        v = np.zeros(0)
+    if v.shape != (3,) or not np.all(np.isfinite(v)):
+        raise argparse.ArgumentTypeError(f"'{shown(text)}': give a point on the machine axis as three numbers "
+                                         "X,Y,Z (mm), e.g. 0,0,0")
+    return v
+
+
+def machine_axis(text: str) -> np.ndarray:
+    """argparse ``type`` of ``--axis X,Y,Z``: the machine (rotor) axis direction (unit vector)."""
+    try:
+        return flow_direction(text)
+    except argparse.ArgumentTypeError:
+        raise argparse.ArgumentTypeError(f"'{shown(text)}': give the machine axis as three numbers X,Y,Z "
+                                         "(not all zero), e.g. 0,0,1") from None
 
 
 def add_compensation_options(p) -> None:
@@ -82,6 +105,11 @@ def add_parser(sub) -> None:
     p.add_argument("--flow", type=flow_direction, metavar="X,Y,Z",
                    help="direction the fluid travels: the leading edge is the upstream end of every section "
                         "(without it the LE is guessed: the blunter end on most sections, with a warning)")
+    p.add_argument("--axis", type=machine_axis, metavar="X,Y,Z",
+                   help="machine (rotor) axis direction, default 0,0,1: a non-planar section on a surface of "
+                        "revolution about it is also measured in m'-theta (the \"meridional\" block)")
+    p.add_argument("--axis-point", type=axis_point, metavar="X,Y,Z",
+                   help="a point on the machine axis (mm, default 0,0,0)")
     add_compensation_options(p)
     p.add_argument("--offsets", default="", metavar="MM,...", help="thickness at these distances from LE and TE")
     p.add_argument("--fractions", default="", metavar="F,...",
@@ -220,7 +248,8 @@ def _run(args, offsets, throat, plots, fractions=()) -> list:
     if blade.warning:
         _say(args, f"warning: {blade.warning}")
     segs = blade.sections
-    params = [measure_section(s, offsets, strict_radius=not args.lenient, fractions=fractions) for s in segs]
+    rotor = {"axis": getattr(args, "axis", None), "axis_point": getattr(args, "axis_point", None)}
+    params = [measure_section(s, offsets, strict_radius=not args.lenient, fractions=fractions, **rotor) for s in segs]
     out = [{**p.as_dict(), "le_rule": blade.le_rule, "stacking": st}
            for p, st in zip(params, stacking(params, axis, flow))]
     if blade.warning:
@@ -233,7 +262,8 @@ def _run(args, offsets, throat, plots, fractions=()) -> list:
             from bladerecon.core.sections.segmentation import segment_section
             nsegs = [segment_section(canonical_loop(q, axis), k, axis, le_hint=s.lift(s.le)[0], throat=throat,
                                      flow=flow) for k, (s, q) in enumerate(zip(segs, nom_pts))]
-        nparams = [measure_section(s, offsets, strict_radius=not args.lenient, fractions=fractions) for s in nsegs]
+        nparams = [measure_section(s, offsets, strict_radius=not args.lenient, fractions=fractions, **rotor)
+                   for s in nsegs]
         out = [compare_with_nominal(o, n.as_dict()) for o, n in zip(out, nparams)]
     else:
         nsegs = [None] * len(segs)

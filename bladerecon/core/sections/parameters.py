@@ -502,7 +502,8 @@ def _chord_normal_thickness(loop: np.ndarray, le: np.ndarray, u: np.ndarray, xs)
 
 
 def measure_section(seg: Segmentation, offsets: tuple[float, ...] = (), n_points: int | None = None,
-                    strict_radius: bool = True, fractions: tuple[float, ...] = ()) -> SectionParameters:
+                    strict_radius: bool = True, fractions: tuple[float, ...] = (),
+                    axis=None, axis_point=None) -> SectionParameters:
     """All parameters of one segmented section (see the module docstring). mm, degrees.
 
     An edge with no measured point beyond its circle's centre raises :class:`BladeReconError`
@@ -510,6 +511,12 @@ def measure_section(seg: Segmentation, offsets: tuple[float, ...] = (), n_points
     goes to ``warnings``. ``offsets``: distances (mm) from LE and TE, ``fractions``: chord
     fractions, where the thickness is measured in both conventions (camber-line normal:
     the inscribed circle's diameter; chord normal: across the line ⟂ chord).
+
+    A non-planar section (``projection`` ``span_normal``) that lies on a surface of revolution
+    about the machine axis (``axis`` direction through ``axis_point``; default z through the
+    origin) is also measured in m′–θ: ``gauges["meridional"]``
+    (:func:`~bladerecon.core.sections.meridional_frame.measure_meridional`); None, with the reason
+    in ``warnings``, when it is not on one. Planar sections get no such key.
     """
     c, r = inscribed_circles(seg)
     edges, warnings, fits, axes = [], [], [], []
@@ -577,6 +584,12 @@ def measure_section(seg: Segmentation, offsets: tuple[float, ...] = (), n_points
               "thickness_at_fraction_chord_normal": frac_cn, "camber_height": float(abs(yc[k_c])),
               "camber_height_pos_frac": float(x[k_c] / chord2), "area": area,
               "centroid": seg.lift(centroid)[0].tolist(), "le_camber": ends_camber[0], "te_camber": ends_camber[1]}
+    if projection == "span_normal":
+        from bladerecon.core.sections.meridional_frame import measure_meridional
+        block, why = measure_meridional(seg, measure_section, axis, axis_point, strict_radius)
+        gauges["meridional"] = block
+        if why:
+            warnings.append(why)
     return SectionParameters(
         index=seg.index, points=int(n_points if n_points is not None else len(seg.points2d)),
         le=le3, te=te3, chord=float(np.linalg.norm(te3 - le3)), chord_in_plane=chord2,
