@@ -21,40 +21,68 @@ from bladerecon.cli.main import main
 from bladerecon.core.errors import BladeReconError
 from bladerecon.core.geometry.projection import project_points_to_surface
 from bladerecon.core.reconstruct import reconstruct
-from bladerecon.core.sections.blade_cloud import choose_method, cut_sections, section_set
+from bladerecon.core.sections.blade_cloud import choose_method, cut_sections, fit_to_cloud, section_set
 from bladerecon.core.sections.cloud import order_slab
 from bladerecon.core.sections.ordering import build_sections
 from bladerecon.samples.propeller import AIRFOIL, blade_cloud, fan_blade, propeller_blade, write_cloud
 from bladerecon.samples.radial import radial_cloud, radial_rotor
 
-# measured on these blades (docs/blades.md); the issue's aim is 0.1 mm everywhere
-LIMITS = {"propeller": (0.2, 0.012), "fan": (0.3, 0.012), "radial": (0.8, 0.06)}
+# Issue 25 asks the one command to reconstruct every test blade within 0.1 mm of the true
+# surface over the airfoil span, as a CFD export and as a scan with 5 µm noise: the largest
+# distance of dense true points (closed form) from the surface must stay under MAX_MM. The
+# true points lie exactly on the true surface and their distance is the exact foot-point
+# distance, so the only slack in the figure is the sampling of the true surface (15 x 300
+# points here, 21 x 400 in bench/bench_blades.py: the largest distance found on the denser
+# set was at most 3 µm more); no margin is taken off the issue's 0.1 mm. The mean is held to a
+# tenth of it (MEAN_MM): a surface that is off by a few hundredths everywhere fails too.
+# Measured (bench/results/blades.md): max 0.013-0.057 mm, mean 0.0003-0.0025 mm; before the
+# fit to the whole cloud, 0.09-0.19 mm at the sections' round edges (here, on that code: fan
+# 0.160 / 0.144, radial 0.182 / 0.182 mm as CFD / scan fail MAX_MM; the propeller's 0.09 pass).
+MAX_MM = 0.1
+MEAN_MM = 0.01
+BLADES = [("propeller", 0.0), ("fan", 0.0), ("radial", 0.0),
+          ("propeller", 0.005), ("fan", 0.005), ("radial", 0.005)]
 _CACHE: dict = {}
 
 
-def _blade(name: str):
-    if name not in _CACHE:
+def _blade(name: str, noise: float = 0.0):
+    key = (name, noise)
+    if key not in _CACHE:
         if name == "radial":
             rotor = radial_rotor()
-            _CACHE[name] = (rotor, radial_cloud(rotor, 15000), None)
+            _CACHE[key] = (rotor, radial_cloud(rotor, 15000, noise=noise), None)
         else:
             cb = propeller_blade() if name == "propeller" else fan_blade()
-            P, lab = blade_cloud(cb, 30000, noise=0.0)
-            _CACHE[name] = (cb, P, lab)
-    return _CACHE[name]
+            P, lab = blade_cloud(cb, 30000, noise=noise)
+            _CACHE[key] = (cb, P, lab)
+    return _CACHE[key]
 
 
-def _reconstructed(name: str):
-    key = name + "-rec"
+def _reconstructed(name: str, noise: float = 0.0):
+    """The one command's surface, by the functions it runs: sections, method, fit to the cloud."""
+    key = (name, noise, "rec")
     if key not in _CACHE:
-        blade, P, _ = _blade(name)
+        blade, P, _ = _blade(name, noise)
         cs = cut_sections(P)
         lines = np.arange(len(P)) + 1
         ss = section_set(cs, lines, name)
         method, _, _ = choose_method(cs, P, ss)
         rec = reconstruct([s.points for s in ss.sections], ss.span_axis, method=method)
-        _CACHE[key] = (cs, rec)
-    return _CACHE[key]
+        fitted, info, _ = fit_to_cloud(rec, cs)
+        _CACHE[key] = (cs, fitted, info, rec)
+    return _CACHE[key][:2]
+
+
+def _truth(name: str, blade, cs) -> np.ndarray:
+    """True points over the reconstructed airfoil span (15 x 300, dense on the round edges)."""
+    if name == "radial":
+        # found stream surfaces lie within a few % of span of the true ones: keep 4 % inside
+        s0, s1 = cs.positions[0] + 0.04, cs.positions[-1] - 0.04
+        return blade.truth(s0, s1, n_span=15, n_profile=300)
+    sign = float(np.dot(blade.span_axis, cs.axis))
+    a0, a1 = blade.airfoil_range()
+    h = np.sort((cs.positions[[0, -1]] * sign - a0) / (a1 - a0))
+    return blade.truth(max(h[0], 0.0), min(h[1], 1.0), n_span=15, n_profile=300)
 
 
 @pytest.mark.timeout(240)
@@ -72,6 +100,9 @@ def test_one_command_no_options_exit_0(name, tmp_path):
     assert sl["kind"] == ("stream-surfaces" if name == "radial" else "auto-planes")
     assert sl["kind_reason"] and sl["method_reason"]
     assert summary["surface"]["method"] in sl["method_reason"]
+    fit = summary["surface"]["cloud_fit"]           # the surface fitted to the whole cloud, said so
+    assert fit["fitted"] and fit["nodes"] > 0.8 * len(P) and fit["rms_mm"] < fit["rms_before_mm"], fit
+    assert summary["fit"]["n"] == fit["nodes"] and summary["fit"]["max"] == pytest.approx(fit["max_mm"])
     if name != "radial":
         # the span axis found is the blade's, and the airfoil span lies inside the true one
         assert np.allclose(sl["axis"], blade.span_axis, atol=1e-9)
@@ -84,22 +115,43 @@ def test_one_command_no_options_exit_0(name, tmp_path):
 
 
 @pytest.mark.timeout(240)
-@pytest.mark.parametrize("name", ["propeller", "fan", "radial"])
-def test_true_surface_within_the_measured_distance(name):
-    blade, P, lab = _blade(name)
-    cs, rec = _reconstructed(name)
-    if name == "radial":
-        # found stream surfaces lie within a few % of span of the true ones: keep 4 % inside
-        s0, s1 = cs.positions[0] + 0.04, cs.positions[-1] - 0.04
-        truth = blade.truth(s0, s1, n_span=15, n_profile=300)
-    else:
-        sign = float(np.dot(blade.span_axis, cs.axis))
-        a0, a1 = blade.airfoil_range()
-        h = np.sort((cs.positions[[0, -1]] * sign - a0) / (a1 - a0))
-        truth = blade.truth(max(h[0], 0.0), min(h[1], 1.0), n_span=15, n_profile=300)
-    d = project_points_to_surface(rec.surface, truth).distance
-    limit_max, limit_mean = LIMITS[name]
-    assert d.max() < limit_max and d.mean() < limit_mean, (d.max(), d.mean())
+@pytest.mark.parametrize("name, noise", BLADES, ids=[f"{n}-{'scan' if z else 'cfd'}" for n, z in BLADES])
+def test_true_surface_within_0_1_mm(name, noise):
+    """Issue 25's figure: the one command's surface within 0.1 mm of the true surface over
+    the airfoil span, on every test blade, as a CFD export and as a 5 µm scan."""
+    blade, P, lab = _blade(name, noise)
+    cs, rec = _reconstructed(name, noise)
+    d = project_points_to_surface(rec.surface, _truth(name, blade, cs)).distance
+    assert d.max() <= MAX_MM and d.mean() <= MEAN_MM, (d.max(), d.mean())
+
+
+@pytest.mark.timeout(240)
+def test_cloud_fit_keeps_planar_ends_and_leaves_stray_nodes_out():
+    """The fit to the cloud moves a planar end section in its plane only (--solid caps it), and
+    nodes far off the blade (stray points of a scan) are left out, not fitted."""
+    import dataclasses
+
+    cs, rec = _reconstructed("propeller")
+    before = _CACHE[("propeller", 0.0, "rec")][3].surface
+    for col in (0, -1):
+        row = rec.surface.poles[:, col]
+        n = np.linalg.svd(before.poles[:, col] - before.poles[:, col].mean(axis=0))[2][2]
+        assert np.ptp((row - row.mean(axis=0)) @ n) < 1e-9
+    # 40 nodes between the sections (in none of them: the slabs leave out what is not
+    # connected to the section) pushed 2 mm off the blade along the surface normal, out of it
+    P = cs.cloud.copy()
+    moved = np.random.default_rng(4).choice(np.setdiff1d(cs.between, np.concatenate(cs.rows)), 40, replace=False)
+    n = project_points_to_surface(before, P[moved]).normal
+    out = [P[moved] + k * 2.0 * n for k in (1.0, -1.0)]
+    far = [project_points_to_surface(before, q).distance for q in out]
+    P[moved] = np.where((far[0] > far[1])[:, None], out[0], out[1])
+    assert np.minimum(*far).min() > 0.5 or np.maximum(*far).min() > 1.5
+    stray = dataclasses.replace(cs, cloud=P)
+    fitted, info, _ = fit_to_cloud(_CACHE[("propeller", 0.0, "rec")][3], stray)
+    assert info["fitted"] and info["left_out_stray"] >= 38, info
+    blade = _blade("propeller")[0]
+    d = project_points_to_surface(fitted.surface, _truth("propeller", blade, cs)).distance
+    assert d.max() <= MAX_MM, d.max()
 
 
 def test_fillet_and_cap_left_out_of_the_sections():

@@ -62,6 +62,7 @@ class CloudSections:
     unrolled: list | None = field(default=None, repr=False)   # stream surfaces: (x m', y r·θ, z s·H) mm
     to_world: object = field(default=None, repr=False)        # maps unrolled points (n, 3) back to mm
     between: np.ndarray | None = field(default=None, repr=False)  # cloud rows between the end sections
+    cloud: np.ndarray | None = field(default=None, repr=False)    # the whole cloud (N, 3) mm the sections came from
 
     def pointset(self, lines: np.ndarray, source: str) -> PointSet:
         pts = np.concatenate(self.sections)
@@ -460,4 +461,4 @@ def auto_sections(P: np.ndarray, span_range: tuple[float, float] | None = None, 
                  "thickness_mm": [float(t) for t in thick], "moved_onto_plane": "along the surface",
                  "largest_gap_ratio": [float(g) for g in gaps]})
     between = np.flatnonzero((h >= pos[0]) & (h <= pos[-1]))
-    return CloudSections(sections, rows, axis, pos, info, between=between)
+    return CloudSections(sections, rows, axis, pos, info, between=between, cloud=P)

@@ -260,4 +260,4 @@ def meridional_sections(P: np.ndarray, axis=(0.0, 0.0, 1.0), n_sections: int | N
         return np.outer(ar[:, 0], axis) + ar[:, 1:2] * (np.outer(np.cos(th), e1) + np.outer(np.sin(th), e2))
 
     between = np.flatnonzero((s >= pos[0]) & (s <= pos[-1]))
-    return CloudSections(sections, rows, axis, pos, info, flat, to_world, between)
+    return CloudSections(sections, rows, axis, pos, info, flat, to_world, between, P)
