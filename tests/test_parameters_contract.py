@@ -779,3 +779,80 @@ def test_a_stream_surface_section_gets_its_m_theta_block_and_a_wrong_axis_a_warn
                                     "[0.0, 20.0, 0.0]: ")
     m = pm.measure_section(seg, axis=(1.0, 0.0, 0.0))
     assert m.gauges["meridional"] is None and "about the axis [1.0, 0.0, 0.0]" in m.warnings[2]
+
+
+# --------------------------------------------------------------------------- the public surface
+def test_the_public_names_and_constants():
+    assert pm.__all__ == ["SectionParameters", "measure_section", "segment_sections", "fit_circle", "kasa_circle",
+                          "inscribed_circles", "MIN_EDGE_POINTS", "PARAMETER_KEYS", "compare_with_nominal", "LE_RULES",
+                          "BladeSegmentation", "canonical_loop", "segment_blade", "stacking", "EdgeCircle"]
+    assert all(hasattr(pm, name) for name in pm.__all__)
+    assert pm.MIN_EDGE_POINTS == 5
+
+
+def test_section_parameters_defaults():
+    """What a caller that builds a row itself (a nominal table) gets for the optional fields."""
+    p = pm.SectionParameters(index=1, points=2, le=np.zeros(3), te=np.ones(3), chord=3.0, stagger_deg=4.0,
+                             max_thickness=5.0, max_thickness_pos=6.0, max_thickness_pos_frac=0.5, le_radius=None,
+                             te_radius=0.1, inlet_angle_deg=7.0, outlet_angle_deg=8.0, camber=np.zeros((0, 3)),
+                             camber_thickness=np.zeros(0))
+    assert (p.thickness_at, p.le_fit_points, p.te_fit_points, p.le_center, p.te_center, p.throat, p.warnings,
+            p.chord_in_plane, p.le_fit, p.te_fit, p.gauges) == ({}, 0, 0, None, None, None, (), 0.0, None, None, {})
+    e = pm.EdgeCircle(np.zeros(2), 1.0, 3, (4, 5), 0.1, np.array([1.0, 0.0]))
+    assert np.isnan(e.flank_rms)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        p.chord = 1.0
+
+
+def test_default_stations_are_two_per_point_between_600_and_2000():
+    """The default count against the count given: the same circles, bit for bit."""
+    for n, stations in ((200, 600), (400, 800), (1100, 2000)):
+        seg = _segment(_profile(DEFAULT, 0.0, n=n)[0])
+        c, r = pm.inscribed_circles(seg)
+        c2, r2 = pm.inscribed_circles(seg, stations)
+        assert np.array_equal(c, c2) and np.array_equal(r, r2), n
+
+
+def _with_edge(monkeypatch, **changes):
+    """The real edge circles with some of their evidence replaced (the warnings' inputs)."""
+    real = pm._edge_circle
+    monkeypatch.setattr(pm, "_edge_circle", lambda *a: dataclasses.replace(real(*a), **changes))
+
+
+@pytest.mark.parametrize("arc, rms, flank, warned", [
+    (5, 4 * 0.07 + pm.NOT_ROUND, 0.07, False),             # at the limit: not beyond it
+    (5, 0.3, 0.07, True), (4, 0.3, 0.07, False), (5, 0.3, float("nan"), False),
+    (6, 0.0039, 0.0002, True), (6, 0.0041, 0.0003, False)])
+def test_not_round_needs_five_arc_points_and_a_scatter_beyond_four_times_the_flanks_plus_3_um(
+        monkeypatch, arc, rms, flank, warned):
+    P, _ = _profile(DEFAULT, 0.0)
+    seg = dataclasses.replace(_segment(P), index=8)
+    _with_edge(monkeypatch, arc_points=arc, rms=rms, flank_rms=flank)
+    m = pm.measure_section(seg)
+    assert m.le_fit == {"arc_points": arc, "flank_points": m.le_fit["flank_points"], "rms": rms,
+                        "flank_rms": None if np.isnan(flank) else flank}
+    want = tuple(f"section 8: the {n} is not a circle: its arc points scatter {rms * 1000:.1f} µm rms about the fitted "
+                 f"circle against {flank * 1000:.1f} µm on the flanks (an elliptic, square or damaged edge?)"
+                 for n in ("leading edge", "trailing edge")) if warned else ()
+    assert m.warnings == want
+    if rms == 0.3 and warned:
+        assert "scatter 300.0 µm rms" in m.warnings[0] and "against 70.0 µm" in m.warnings[0]
+
+
+@pytest.mark.parametrize("arc", [0, 1, 2])
+def test_arc_point_warnings_by_count(monkeypatch, arc):
+    P, _ = _profile(DEFAULT, 0.0)
+    seg = _segment(P)
+    _with_edge(monkeypatch, arc_points=arc)
+    m = pm.measure_section(seg)
+    assert m.le_fit_points == arc and m.te_fit_points == arc
+    if arc == 0:
+        assert len(m.warnings) == 2 and all(re.fullmatch(
+            r"section 0: no measured point lies on the (leading|trailing) edge's arc: its radius is that of the "
+            r"largest circle tangent to both flanks that the points allow \(an upper bound; the chord end as "
+            r"uncertain\): measure points round the edge", w) for w in m.warnings)
+    elif arc == 1:
+        assert m.warnings == tuple(f"section 0: the {n} radius rests on 1 measured point on its arc and the flanks' "
+                                   "tangency: measure more points round the edge" for n in ("leading edge", "trailing edge"))
+    else:
+        assert m.warnings == ()
