@@ -856,3 +856,63 @@ def test_arc_point_warnings_by_count(monkeypatch, arc):
                                    "tangency: measure more points round the edge" for n in ("leading edge", "trailing edge"))
     else:
         assert m.warnings == ()
+
+
+# --------------------------------------------------------------------------- second round
+def test_every_inscribed_circle_touches_the_sampled_suction_side():
+    """The root of dist(p + r n, S) − r to round-off: S the suction side sampled at 2.5 times
+    the stations (the documented sampling, rebuilt here), distances by a fresh KD-tree."""
+    from bladerecon.core.geometry.bspline import evaluate_curve
+    seg = _segment(_profile(DEFAULT, 0.0, n=400)[0])
+    for stations in (300, 800):
+        c, r = pm.inscribed_circles(seg, stations)
+        S = evaluate_curve(seg.curve, pm._side_parameters(seg, SUCTION, int(2.5 * stations)))
+        d = cKDTree(S).query(c)[0]
+        # converged to round-off at nearly every station; a few stop within the 1e-7 mm step where the
+        # nearest sample changes (seen: 2e-7 mm)
+        assert np.median(np.abs(d - r)) < 1e-12 and np.quantile(np.abs(d - r), 0.9) < 1e-10, stations
+        assert np.abs(d - r).max() < 1e-6, stations
+
+
+def test_ten_inscribed_circles_are_enough_and_nine_are_not():
+    seg = _segment(_profile(DEFAULT, 0.0, n=400)[0])
+    c, r = pm.inscribed_circles(seg, 10)
+    assert len(c) == 10 and len(r) == 10
+    with pytest.raises(BladeReconError, match=r"^section 0: no inscribed circles found"):
+        pm.inscribed_circles(seg, 9)
+
+
+@pytest.mark.parametrize("at_le", [True, False])
+def test_metal_angle_fits_the_camber_points_within_15_percent_of_the_chord(at_le):
+    """A cubic camber line (the fit's window shows): np.polyfit over exactly the points with
+    x ≤ 0.15 L (LE) or x ≥ 0.85 L (TE), boundary points included, is the referee."""
+    L = 10.0
+    seg = SimpleNamespace(le=np.zeros(2), te=np.array([L, 0.0]), chord=L)
+    x = np.r_[0.2, 0.6, 1.0, 1.5, np.linspace(2.0, 8.0, 13), 8.5, 9.0, 9.4, 9.8]
+    y = 0.004 * x ** 3 - 0.05 * x ** 2 + 0.3 * x
+    c = np.column_stack([x, y])
+    w = (x <= 1.5) if at_le else (x >= 8.5)
+    assert w.sum() == 4                                      # exactly the fit's least
+    x0 = 0.4 if at_le else 9.6
+    want = np.degrees(np.arctan(np.polyval(np.polyder(np.polyfit(x[w], y[w], 2)), x0)))
+    assert pm._metal_angle(seg, c, at_le, np.array([x0, 0.3])) == pytest.approx(want, abs=1e-9)
+
+
+def test_a_tied_vote_keeps_the_first_sections_end():
+    """Two sections, the first mirrored: one says its LE is the blunter end, one the sharper: no majority."""
+    secs = _blade(hs=(0.0, 0.5))
+    first = secs[0] * np.array([-1.0, 1.0, 1.0]) + np.array([secs[0][:, 0].max() + secs[0][:, 0].min(), 0.0, 0.0])
+    bs = pm.segment_blade([first, secs[1]], Z)
+    assert [_le_end(s) for s in bs.sections] == [1, 1]
+
+
+def test_failed_edges_fall_back_to_the_segmentations_ends_in_their_place(monkeypatch):
+    P, _ = _profile(DEFAULT, 0.0)
+    seg = _segment(P)
+    monkeypatch.setattr(pm, "_edge_circle", lambda *a: None)
+    m = pm.measure_section(seg, strict_radius=False)
+    assert np.allclose(m.le_center, seg.lift(seg.le)[0], atol=1e-12)
+    assert np.allclose(m.te_center, seg.lift(seg.te)[0], atol=1e-12)
+    assert m.le_fit is None and m.te_fit is None
+    # the figures that do not need the circles are still those of the section
+    assert abs(m.max_thickness - DEFAULT.section_laws(0.0).max_thickness) < 1e-3
