@@ -85,6 +85,90 @@ def _polygon_area_centroid(P):
     return a, np.array([((x + np.roll(x, -1)) * cr).sum(), ((y + np.roll(y, -1)) * cr).sum()]) / (6 * a)
 
 
+# --------------------------------------------------------------------------- the analytic section (first:
+# it judges most of the module at once, so most mutants end here)
+def _arc_points_truth(blade, h, t, P, tr, at_le):
+    """Measured points on the analytic edge arc by more than ARC_MARGIN (0.02 rad) from its joints
+    (the pieces' bounds in t), counted by their angle about the true edge centre."""
+    b = blade.segment_bounds(h)
+    centre = tr.cam[0] if at_le else tr.cam[-1]
+    j = blade.point(h, np.array([b[1], b[4]] if at_le else [b[2], b[3]]))
+    ang = lambda Q: np.arctan2((Q - centre) @ tr.v, (Q - centre) @ tr.u)
+    a_lo, a_hi = np.sort(np.mod(ang(j), 2 * np.pi))
+    a = np.mod(ang(P), 2 * np.pi)
+    if at_le:                                 # the LE arc is the long way round through π
+        return int(np.sum((a > a_lo + 0.02) & (a < a_hi - 0.02)))
+    a = np.mod(a + np.pi, 2 * np.pi)
+    a_lo, a_hi = np.sort(np.mod(np.array([a_lo, a_hi]) + np.pi, 2 * np.pi))
+    return int(np.sum((a > a_lo + 0.02) & (a < a_hi - 0.02)))
+
+
+@pytest.mark.parametrize("case", sorted(CASES))
+def test_measure_section_gives_the_analytic_sections_figures(case):
+    blade, h = CASES[case]
+    P, t = _profile(blade, h)
+    tr = _truth(blade, h)
+    seg = _segment(P)
+    m = pm.measure_section(seg, (2.0,), fractions=(0.3, 0.7))
+    L = tr.chord
+    assert m.index == 0 and m.points == 600 and m.warnings == ()
+    assert abs(m.chord - L) < 1e-3 and m.chord_in_plane == pytest.approx(m.chord, abs=1e-12)
+    assert abs(m.stagger_deg - tr.stagger) < 0.005
+    assert np.linalg.norm(m.le - tr.le) < 0.005 and np.linalg.norm(m.te - tr.te) < 0.005
+    assert abs(m.le_radius / tr.r_le - 1) < 0.005 and abs(m.te_radius / tr.r_te - 1) < 0.005
+    assert np.linalg.norm(m.le_center - tr.cam[0]) < 0.005 and np.linalg.norm(m.te_center - tr.cam[-1]) < 0.005
+    assert abs(m.max_thickness - tr.tmax) < 0.001
+    x_tmax = float((blade.camber_point(h, blade.tmax_position) - tr.le) @ tr.u)
+    assert abs(m.max_thickness_pos - x_tmax) < 0.05 and abs(m.max_thickness_pos_frac - x_tmax / L) < 0.05 / L
+    # circular-arc camber: the metal angles are the stagger ± half the camber angle
+    assert abs(m.inlet_angle_deg - (tr.stagger + tr.camber / 2)) < 0.1
+    assert abs(m.outlet_angle_deg - (tr.stagger - tr.camber / 2)) < 0.1
+    # every inscribed circle is a disk of the generator: centre on the camber line, diameter 2 R
+    # there (25 µm at the ends, where the stations' circles meet the edge arcs; 1 µm between)
+    d, i = cKDTree(tr.cam).query(m.camber)
+    x = (m.camber - tr.le) @ tr.u
+    mid = (x > 0.05 * L) & (x < 0.95 * L)
+    assert len(m.camber) > 1000 and np.all(np.diff(x) >= 0) and m.camber_thickness.shape == (len(m.camber),)
+    assert d.max() < 0.03 and d[mid].max() < 1e-3
+    assert np.abs(m.camber_thickness - 2 * tr.R[i]).max() < 0.03
+    assert np.abs(m.camber_thickness - 2 * tr.R[i])[mid].max() < 1e-3
+    assert np.allclose(m.camber[:, 2], blade.z_of(h), atol=1e-9)
+    # thickness at 2 mm from each end and at chord fractions: the generator's disk there (camber
+    # normal) and the width ⟂ chord (chord normal), 0.5 µm
+    for key, xx in (("le+2", 2.0), ("te+2", L - 2.0)):
+        assert abs(m.thickness_at[key] - 2 * np.interp(xx, tr.xc, tr.R)) < 5e-4, key
+        assert abs(m.gauges["thickness_at_chord_normal"][key] - _chord_normal_truth(blade, h, tr, xx)) < 5e-4, key
+    assert set(m.thickness_at) == {"le+2", "te+2"}
+    for f in (0.3, 0.7):
+        assert abs(m.gauges["thickness_at_fraction"][f"{f:g}"] - 2 * np.interp(f * L, tr.xc, tr.R)) < 5e-4
+        assert abs(m.gauges["thickness_at_fraction_chord_normal"][f"{f:g}"]
+                   - _chord_normal_truth(blade, h, tr, f * L)) < 5e-4
+    assert set(m.gauges["thickness_at_fraction"]) == {"0.3", "0.7"}
+    # camber height: the sagitta of the circular camber arc, at its middle
+    th = np.radians(tr.camber)
+    rho = (L - tr.r_le - tr.r_te) / (2 * np.sin(th / 2))
+    assert abs(m.gauges["camber_height"] - rho * (1 - np.cos(th / 2))) < 0.005
+    assert abs(m.gauges["camber_height_pos_frac"] - (tr.r_le + (L - tr.r_le - tr.r_te) / 2) / L) < 0.05 / L
+    # area and centroid of a dense polygon of the true section (40000 points)
+    dense = blade.point(h, np.arange(40000) / 40000)
+    area, cen = _polygon_area_centroid(dense)
+    assert abs(m.gauges["area"] / abs(area) - 1) < 5e-6
+    assert np.linalg.norm(np.array(m.gauges["centroid"]) - [*cen, blade.z_of(h)]) < 1e-4
+    # the other chord-end convention: the camber line extended through the edge circle
+    for key, k, sgn, r in (("le_camber", 0, 1, tr.r_le), ("te_camber", -1, -1, tr.r_te)):
+        tan = (tr.cam[k + sgn] - tr.cam[k]) / np.linalg.norm(tr.cam[k + sgn] - tr.cam[k])   # into the blade
+        assert np.linalg.norm(np.array(m.gauges[key]) - (tr.cam[k] - r * tan)) < 0.005, key
+    assert m.gauges["projection"] == "section_plane" and "meridional" not in m.gauges
+    assert m.throat is None
+    # the evidence of each edge circle: the measured points on its arc, the flanks' points, noise
+    for fit, n, at_le in ((m.le_fit, m.le_fit_points, True), (m.te_fit, m.te_fit_points, False)):
+        assert set(fit) == {"arc_points", "flank_points", "rms", "flank_rms"}
+        assert fit["arc_points"] == n
+        assert abs(n - _arc_points_truth(blade, h, t, P, tr, at_le)) <= 1
+        assert len(fit["flank_points"]) == 2 and min(fit["flank_points"]) >= 20
+        assert 0 <= fit["rms"] < 2e-3 and 0 < fit["flank_rms"] < 2e-3
+
+
 # --------------------------------------------------------------------------- circles
 def test_kasa_circle_is_exact_on_a_circle_and_holds_its_floor():
     a = np.linspace(0.2, 2.0, 7)
@@ -410,89 +494,6 @@ def test_canonical_loop_is_the_same_bits_from_any_start_and_direction():
     assert out[0, 0] == 3.0
     for start in (0, 11):
         assert np.array_equal(pm.canonical_loop(np.roll(Q[::-1], -start, axis=0)), out)
-
-
-# --------------------------------------------------------------------------- the analytic section
-def _arc_points_truth(blade, h, t, P, tr, at_le):
-    """Measured points on the analytic edge arc by more than ARC_MARGIN (0.02 rad) from its joints
-    (the pieces' bounds in t), counted by their angle about the true edge centre."""
-    b = blade.segment_bounds(h)
-    centre = tr.cam[0] if at_le else tr.cam[-1]
-    j = blade.point(h, np.array([b[1], b[4]] if at_le else [b[2], b[3]]))
-    ang = lambda Q: np.arctan2((Q - centre) @ tr.v, (Q - centre) @ tr.u)
-    a_lo, a_hi = np.sort(np.mod(ang(j), 2 * np.pi))
-    a = np.mod(ang(P), 2 * np.pi)
-    if at_le:                                 # the LE arc is the long way round through π
-        return int(np.sum((a > a_lo + 0.02) & (a < a_hi - 0.02)))
-    a = np.mod(a + np.pi, 2 * np.pi)
-    a_lo, a_hi = np.sort(np.mod(np.array([a_lo, a_hi]) + np.pi, 2 * np.pi))
-    return int(np.sum((a > a_lo + 0.02) & (a < a_hi - 0.02)))
-
-
-@pytest.mark.parametrize("case", sorted(CASES))
-def test_measure_section_gives_the_analytic_sections_figures(case):
-    blade, h = CASES[case]
-    P, t = _profile(blade, h)
-    tr = _truth(blade, h)
-    seg = _segment(P)
-    m = pm.measure_section(seg, (2.0,), fractions=(0.3, 0.7))
-    L = tr.chord
-    assert m.index == 0 and m.points == 600 and m.warnings == ()
-    assert abs(m.chord - L) < 1e-3 and m.chord_in_plane == pytest.approx(m.chord, abs=1e-12)
-    assert abs(m.stagger_deg - tr.stagger) < 0.005
-    assert np.linalg.norm(m.le - tr.le) < 0.005 and np.linalg.norm(m.te - tr.te) < 0.005
-    assert abs(m.le_radius / tr.r_le - 1) < 0.005 and abs(m.te_radius / tr.r_te - 1) < 0.005
-    assert np.linalg.norm(m.le_center - tr.cam[0]) < 0.005 and np.linalg.norm(m.te_center - tr.cam[-1]) < 0.005
-    assert abs(m.max_thickness - tr.tmax) < 0.001
-    x_tmax = float((blade.camber_point(h, blade.tmax_position) - tr.le) @ tr.u)
-    assert abs(m.max_thickness_pos - x_tmax) < 0.05 and abs(m.max_thickness_pos_frac - x_tmax / L) < 0.05 / L
-    # circular-arc camber: the metal angles are the stagger ± half the camber angle
-    assert abs(m.inlet_angle_deg - (tr.stagger + tr.camber / 2)) < 0.1
-    assert abs(m.outlet_angle_deg - (tr.stagger - tr.camber / 2)) < 0.1
-    # every inscribed circle is a disk of the generator: centre on the camber line, diameter 2 R
-    # there (25 µm at the ends, where the stations' circles meet the edge arcs; 1 µm between)
-    d, i = cKDTree(tr.cam).query(m.camber)
-    x = (m.camber - tr.le) @ tr.u
-    mid = (x > 0.05 * L) & (x < 0.95 * L)
-    assert len(m.camber) > 1000 and np.all(np.diff(x) >= 0) and m.camber_thickness.shape == (len(m.camber),)
-    assert d.max() < 0.03 and d[mid].max() < 1e-3
-    assert np.abs(m.camber_thickness - 2 * tr.R[i]).max() < 0.03
-    assert np.abs(m.camber_thickness - 2 * tr.R[i])[mid].max() < 1e-3
-    assert np.allclose(m.camber[:, 2], blade.z_of(h), atol=1e-9)
-    # thickness at 2 mm from each end and at chord fractions: the generator's disk there (camber
-    # normal) and the width ⟂ chord (chord normal), 0.5 µm
-    for key, xx in (("le+2", 2.0), ("te+2", L - 2.0)):
-        assert abs(m.thickness_at[key] - 2 * np.interp(xx, tr.xc, tr.R)) < 5e-4, key
-        assert abs(m.gauges["thickness_at_chord_normal"][key] - _chord_normal_truth(blade, h, tr, xx)) < 5e-4, key
-    assert set(m.thickness_at) == {"le+2", "te+2"}
-    for f in (0.3, 0.7):
-        assert abs(m.gauges["thickness_at_fraction"][f"{f:g}"] - 2 * np.interp(f * L, tr.xc, tr.R)) < 5e-4
-        assert abs(m.gauges["thickness_at_fraction_chord_normal"][f"{f:g}"]
-                   - _chord_normal_truth(blade, h, tr, f * L)) < 5e-4
-    assert set(m.gauges["thickness_at_fraction"]) == {"0.3", "0.7"}
-    # camber height: the sagitta of the circular camber arc, at its middle
-    th = np.radians(tr.camber)
-    rho = (L - tr.r_le - tr.r_te) / (2 * np.sin(th / 2))
-    assert abs(m.gauges["camber_height"] - rho * (1 - np.cos(th / 2))) < 0.005
-    assert abs(m.gauges["camber_height_pos_frac"] - (tr.r_le + (L - tr.r_le - tr.r_te) / 2) / L) < 0.05 / L
-    # area and centroid of a dense polygon of the true section (40000 points)
-    dense = blade.point(h, np.arange(40000) / 40000)
-    area, cen = _polygon_area_centroid(dense)
-    assert abs(m.gauges["area"] / abs(area) - 1) < 5e-6
-    assert np.linalg.norm(np.array(m.gauges["centroid"]) - [*cen, blade.z_of(h)]) < 1e-4
-    # the other chord-end convention: the camber line extended through the edge circle
-    for key, k, sgn, r in (("le_camber", 0, 1, tr.r_le), ("te_camber", -1, -1, tr.r_te)):
-        tan = (tr.cam[k + sgn] - tr.cam[k]) / np.linalg.norm(tr.cam[k + sgn] - tr.cam[k])   # into the blade
-        assert np.linalg.norm(np.array(m.gauges[key]) - (tr.cam[k] - r * tan)) < 0.005, key
-    assert m.gauges["projection"] == "section_plane" and "meridional" not in m.gauges
-    assert m.throat is None
-    # the evidence of each edge circle: the measured points on its arc, the flanks' points, noise
-    for fit, n, at_le in ((m.le_fit, m.le_fit_points, True), (m.te_fit, m.te_fit_points, False)):
-        assert set(fit) == {"arc_points", "flank_points", "rms", "flank_rms"}
-        assert fit["arc_points"] == n
-        assert abs(n - _arc_points_truth(blade, h, t, P, tr, at_le)) <= 1
-        assert len(fit["flank_points"]) == 2 and min(fit["flank_points"]) >= 20
-        assert 0 <= fit["rms"] < 2e-3 and 0 < fit["flank_rms"] < 2e-3
 
 
 def test_as_dict_holds_every_figure_and_the_gauges():
@@ -916,3 +917,56 @@ def test_failed_edges_fall_back_to_the_segmentations_ends_in_their_place(monkeyp
     assert m.le_fit is None and m.te_fit is None
     # the figures that do not need the circles are still those of the section
     assert abs(m.max_thickness - DEFAULT.section_laws(0.0).max_thickness) < 1e-3
+
+
+def _sparse_flank_section():
+    """The hub section, 600 points, with the points from 0.3 to 30 mm behind the LE (the LE arc's
+    joints are at 0.46 and 1.04 mm) replaced by seven on each flank, at x = 2, 4, 7, 11, 16, 23 and
+    27 mm: five of them within the 35 % window (19.6 mm behind the touching point), seven within
+    the 50 % one. Returns the points and, per
+    flank (pressure, suction), which of them lie on it within 30 mm of the LE."""
+    B, h = DEFAULT, 0.0
+    tr = _truth(B, h)
+    b = B.segment_bounds(h)
+    P, t = _profile(B, h)
+    x = (P - tr.le) @ tr.u
+    tt = np.arange(200000) / 200000
+    xd = (B.point(h, tt) - tr.le) @ tr.u
+    extra = []
+    for lo, hi in ((b[1], b[2]), (b[3], b[4])):
+        s = (tt >= lo) & (tt < hi)
+        extra += [tt[s][np.argmin(np.abs(xd[s] - xx))] for xx in (2.0, 4.0, 7.0, 11.0, 16.0, 23.0, 27.0)]
+    T = np.sort(np.r_[t[~((x > 0.3) & (x < 30.0))], extra])
+    Q = B.point(h, T)
+    xq = (Q - tr.le) @ tr.u
+    flanks = [(T >= lo) & (T < hi) & (xq < 30.0) for lo, hi in ((b[1], b[2]), (b[3], b[4]))]
+    return Q, flanks
+
+
+def test_a_flank_with_five_points_in_its_window_keeps_it_and_its_noise_is_the_far_halfs_residual():
+    """Five points in the 35 % window are enough (none from the 50 % one); the flank rms is the rms
+    of the residuals of each flank's polynomial (degree by count: 2 for five, 3 for six or more)
+    over the far half of its window, scaled by √(n / (n − coefficients)): np.polyfit in the edge
+    circle's own frame (its axis) is the referee, to 1e-9 mm."""
+    Q, flanks = _sparse_flank_section()
+    seg = _segment(Q)
+    m = pm.measure_section(seg)
+    assert abs(m.le_radius / 0.9 - 1) < 0.02          # quadratic flanks from 2 to 16 mm: 1 % (measured)
+    ec = pm._edge_circle(seg, LE, *pm.inscribed_circles(seg))
+    q2 = seg.frame.to_plane(Q)
+    ay = np.array([-ec.axis[1], ec.axis[0]])
+    win = []
+    for f in flanks:
+        Xf, Yf = q2[f] @ ec.axis, q2[f] @ ay
+        inside = Xf <= Xf.min() + 20.0                      # the points within the 35 % window
+        win.append((Xf[inside], Yf[inside]))
+    counts = sorted(len(w[0]) for w in win)
+    assert counts == [5, 5] and list(ec.flank_points) == counts and m.le_fit["flank_points"] == list(ec.flank_points)
+    sq = []
+    for Xf, Yf in win:
+        deg = 3 if len(Xf) >= 6 else 2
+        res = np.polyval(np.polyfit(Xf, Yf, deg), Xf) - Yf
+        far = Xf >= np.median(Xf)
+        sq.append(res[far] * np.sqrt(len(Xf) / (len(Xf) - deg - 1)))
+    want = float(np.sqrt(np.mean(np.concatenate(sq) ** 2)))
+    assert ec.flank_rms == pytest.approx(want, abs=1e-9) and m.le_fit["flank_rms"] == pytest.approx(want, abs=1e-9)
