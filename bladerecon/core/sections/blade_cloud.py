@@ -27,7 +27,7 @@ from bladerecon.core.sections.cloud import CloudSections, auto_sections
 from bladerecon.core.sections.meridional import meridional_sections
 
 __all__ = ["cut_sections", "section_set", "choose_method", "fit_to_cloud", "OPEN_GAP_RATIO", "HELD_OUT",
-           "CLOUD_FIT_ROUNDS", "CLOUD_FIT_HOLD", "CLOUD_FIT_GATE"]
+           "CLOUD_FIT_ROUNDS", "CLOUD_FIT_HOLD", "CLOUD_FIT_GATE", "CLOUD_FIT_NODES_PER_POLE"]
 
 #: cloud nodes between the sections (not in them) that judge the fitting method
 HELD_OUT = 3000
@@ -36,6 +36,11 @@ HELD_OUT = 3000
 #: (airfoils of the test blades: at most 16x; planes through the radial test rotor: 15-60x)
 OPEN_GAP_RATIO = 20.0
 
+#: fewest cloud nodes per pole for :func:`fit_to_cloud` (random nodes: a mean of 4 leaves few
+#: bicubic patches empty). An interpolating surface of a dense cloud's sections has a pole per
+#: section point (1400-1500 around on the test blades: one node per pole), the smoothing fit
+#: 65-160: the method whose surface the cloud cannot be fitted to is not chosen
+CLOUD_FIT_NODES_PER_POLE = 4
 #: least-squares rounds of :func:`fit_to_cloud`, each from the nodes' feet on the last surface
 CLOUD_FIT_ROUNDS = 3
 #: a pole keeps its place on the sections' surface with this share of a pole's mean data
@@ -99,8 +104,10 @@ def section_set(cs: CloudSections, lines: np.ndarray, source: str):
 def choose_method(cs: CloudSections, P: np.ndarray, sections) -> tuple[str, str, dict]:
     """``interpolate`` or ``approximate`` for the sections of a cloud, judged on the cloud's own
     nodes that lie between the sections but in none of them (up to ``HELD_OUT``, evenly
-    picked): the method whose surface they are closer to (RMS) wins. Returns
-    ``(method, reason, {method: {rms_mm, max_mm}})``."""
+    picked): the method whose surface they are closer to (RMS) wins, among those whose
+    surface the whole cloud can be fitted to afterwards (:func:`fit_to_cloud`: at least
+    ``CLOUD_FIT_NODES_PER_POLE`` nodes between the end sections a pole). Returns
+    ``(method, reason, {method: {rms_mm, max_mm, poles}})``."""
     from bladerecon.core.geometry.projection import project_points_to_surface
     from bladerecon.core.reconstruct import reconstruct
 
@@ -118,12 +125,21 @@ def choose_method(cs: CloudSections, P: np.ndarray, sections) -> tuple[str, str,
         except BladeReconError:
             continue
         d = project_points_to_surface(rec.surface, P[held]).distance
-        scores[method] = {"rms_mm": float(np.sqrt(np.mean(d * d))), "max_mm": float(d.max())}
+        scores[method] = {"rms_mm": float(np.sqrt(np.mean(d * d))), "max_mm": float(d.max()),
+                          "poles": int(np.prod(rec.surface.shape))}
     if not scores:
         return "interpolate", "interpolate: neither fit could be judged", {}
-    best = min(scores, key=lambda m: scores[m]["rms_mm"])
+    nodes = len(cs.between) if cs.between is not None else len(P)
+    fits = [m for m in scores if nodes >= CLOUD_FIT_NODES_PER_POLE * scores[m]["poles"]]
+    best = min(fits or scores, key=lambda m: scores[m]["rms_mm"])
     text = ", ".join(f"{m} {v['rms_mm'] * 1000:.1f} µm" for m, v in scores.items())
-    return best, (f"{best}: closer to the {held.size} cloud nodes between the sections (RMS: {text})"), scores
+    why = f"{best}: closer to the {held.size} cloud nodes between the sections (RMS: {text})"
+    if fits and len(fits) < len(scores):
+        left = [m for m in scores if m not in fits]
+        why = (f"{best}: the only one whose surface the {nodes} cloud nodes can be fitted to ({left[0]}: "
+               f"{scores[left[0]]['poles']} poles, fewer than {CLOUD_FIT_NODES_PER_POLE} nodes a pole; RMS to the "
+               f"{held.size} cloud nodes between the sections: {text})")
+    return best, why, scores
 
 
 def _tensor_rows(surface, u: np.ndarray, v: np.ndarray):
@@ -185,9 +201,10 @@ def fit_to_cloud(rec, cs: CloudSections, rounds: int = CLOUD_FIT_ROUNDS):
     if cs.cloud is None or cs.between is None:
         return rec, None, None
     X = np.asarray(cs.cloud, float)[cs.between]
-    if len(X) < nu * nv:
+    if len(X) < CLOUD_FIT_NODES_PER_POLE * nu * nv:
         return rec, {"fitted": False,
-                     "reason": f"{len(X)} cloud nodes for {nu * nv} poles: the sections' surface kept"}, None
+                     "reason": f"{len(X)} cloud nodes for {nu * nv} poles (fewer than {CLOUD_FIT_NODES_PER_POLE} a "
+                               "pole): the sections' surface kept"}, None
     pr = project_points_to_surface(S0, X)
     lo, hi = S0.v_domain
     span = hi - lo
@@ -198,7 +215,7 @@ def fit_to_cloud(rec, cs: CloudSections, rounds: int = CLOUD_FIT_ROUNDS):
     gates = [CLOUD_FIT_GATE * float(pr.distance[slab & inside].max()) if (slab & inside).any() else np.inf]
     use = inside & (pr.distance <= gates[0])
     max_before = float(pr.distance[use].max()) if use.any() else 0.0
-    if use.sum() < nu * nv:
+    if use.sum() < CLOUD_FIT_NODES_PER_POLE * nu * nv:
         return rec, {"fitted": False, "reason": f"{int(use.sum())} cloud nodes on the surface for {nu * nv} "
                                                 "poles: the sections' surface kept"}, None
     X, u, v, slab = X[use], pr.u[use], pr.v[use], slab[use]
@@ -224,7 +241,7 @@ def fit_to_cloud(rec, cs: CloudSections, rounds: int = CLOUD_FIT_ROUNDS):
         if len(history) == 1 and slab.any():     # strays the sections' surface did not show
             gates.append(CLOUD_FIT_GATE * float(pr.distance[slab].max()))
             keep = pr.distance <= gates[-1]
-            if keep.sum() >= nu * nv and not keep.all():
+            if keep.sum() >= CLOUD_FIT_NODES_PER_POLE * nu * nv and not keep.all():
                 stray += int((~keep).sum())
                 X, u, v, slab, pr = X[keep], u[keep], v[keep], slab[keep], None
     if pr is None:
