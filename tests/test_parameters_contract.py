@@ -919,7 +919,7 @@ def test_failed_edges_fall_back_to_the_segmentations_ends_in_their_place(monkeyp
     assert abs(m.max_thickness - DEFAULT.section_laws(0.0).max_thickness) < 1e-3
 
 
-def _sparse_flank_section():
+def _sparse_flank_section(placed=(2.0, 4.0, 7.0, 11.0, 16.0, 23.0, 27.0)):
     """The hub section, 600 points, with the points from 0.3 to 30 mm behind the LE (the LE arc's
     joints are at 0.46 and 1.04 mm) replaced by seven on each flank, at x = 2, 4, 7, 11, 16, 23 and
     27 mm: five of them within the 35 % window (19.6 mm behind the touching point), seven within
@@ -935,7 +935,7 @@ def _sparse_flank_section():
     extra = []
     for lo, hi in ((b[1], b[2]), (b[3], b[4])):
         s = (tt >= lo) & (tt < hi)
-        extra += [tt[s][np.argmin(np.abs(xd[s] - xx))] for xx in (2.0, 4.0, 7.0, 11.0, 16.0, 23.0, 27.0)]
+        extra += [tt[s][np.argmin(np.abs(xd[s] - xx))] for xx in placed]
     T = np.sort(np.r_[t[~((x > 0.3) & (x < 30.0))], extra])
     Q = B.point(h, T)
     xq = (Q - tr.le) @ tr.u
@@ -970,3 +970,29 @@ def test_a_flank_with_five_points_in_its_window_keeps_it_and_its_noise_is_the_fa
         sq.append(res[far] * np.sqrt(len(Xf) / (len(Xf) - deg - 1)))
     want = float(np.sqrt(np.mean(np.concatenate(sq) ** 2)))
     assert ec.flank_rms == pytest.approx(want, abs=1e-9) and m.le_fit["flank_rms"] == pytest.approx(want, abs=1e-9)
+
+
+def test_a_flank_with_four_points_in_its_window_takes_the_wider_one():
+    """Four placed points within the 35 % window (3, 8, 13, 18 mm; it ends 19.6 mm behind the
+    touching point, at 20.1 to 20.6 mm), one more within the 50 % one (24 mm; it ends at 28.5 mm),
+    the measured points again from 30 mm: each flank model takes the five of the 50 % window."""
+    Q, _ = _sparse_flank_section((3.0, 8.0, 13.0, 18.0, 24.0))
+    m = pm.measure_section(_segment(Q))
+    assert m.le_fit["flank_points"] == [5, 5]
+    assert abs(m.le_radius / 0.9 - 1) < 0.05          # quadratic flanks from 3 to 24 mm: 3 % (measured)
+
+
+def test_the_loop_for_area_and_widths_is_the_segmentations_table_or_the_same_samples_anew():
+    """Area and centroid from the segmentation's 8000-sample table (shoelace here, to round-off);
+    without the table the curve is sampled anew at the same 8000 parameters: the same figures."""
+    P, _ = _profile(DEFAULT, 0.0)
+    seg = _segment(P)
+    m = pm.measure_section(seg, (3.0,))
+    assert seg.table is not None and len(seg.table[1]) == 8000
+    area, cen = _polygon_area_centroid(seg.table[1])
+    assert m.gauges["area"] == pytest.approx(abs(area), rel=1e-12)
+    assert np.allclose(m.gauges["centroid"], seg.lift(cen)[0], atol=1e-10)
+    m2 = pm.measure_section(dataclasses.replace(seg, table=None), (3.0,))
+    assert m2.gauges["area"] == pytest.approx(m.gauges["area"], rel=1e-12)
+    assert m2.gauges["thickness_at_chord_normal"]["le+3"] == pytest.approx(m.gauges["thickness_at_chord_normal"]["le+3"],
+                                                                         abs=1e-10)
