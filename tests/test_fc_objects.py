@@ -139,19 +139,22 @@ def test_robust_fit_equals_the_cli(chain):
     doc, points, _, _, nominal, _ = chain
     robust = bro.make_deviation_analysis(doc, points, nominal, None, alignment="rigid", name="RobustAnalysis",
                                          robust=True)
-    doc.recompute()
-    assert robust.Status == "ok", robust.Status
-    proc = subprocess.run([sys.executable, "-m", "bladerecon", "deviation", str(PLAN), "--nominal", str(NOMINAL),
-                           "--align", "rigid", "--robust", "--json", "--quiet"], cwd=str(REPO), capture_output=True,
-                          text=True, timeout=300)
-    assert proc.returncode == 0, proc.stderr
-    cli = json.loads(proc.stdout)
-    for key, value in bro.DeviationAnalysis.stats(robust).items():
-        assert value == pytest.approx(cli[key], rel=1e-9, abs=1e-12), key
-    assert robust.PointsWeightedOut == cli["alignment"]["points_weighted_out"]
-    M = np.array(robust.AlignmentMatrix.A).reshape(4, 4)
-    np.testing.assert_allclose(M, cli["alignment"]["matrix"], atol=1e-9)
-    doc.removeObject(robust.Name)
+    try:
+        doc.recompute()
+        assert robust.Status == "ok", robust.Status
+        proc = subprocess.run([sys.executable, "-m", "bladerecon", "deviation", str(PLAN), "--nominal", str(NOMINAL),
+                               "--align", "rigid", "--robust", "--json", "--quiet"], cwd=str(REPO), capture_output=True,
+                              text=True, timeout=300)
+        assert proc.returncode == 0, proc.stderr
+        cli = json.loads(proc.stdout)
+        for key, value in bro.DeviationAnalysis.stats(robust).items():
+            assert value == pytest.approx(cli[key], rel=1e-9, abs=1e-12), key
+        assert robust.PointsWeightedOut == cli["alignment"]["points_weighted_out"]
+        M = np.array(robust.AlignmentMatrix.A).reshape(4, 4)
+        np.testing.assert_allclose(M, cli["alignment"]["matrix"], atol=1e-9)
+    finally:                     # the module's shared document as it was, whatever failed
+        doc.removeObject(robust.Name)
+        doc.recompute()
 
 
 def test_surface_map_against_occ(chain):

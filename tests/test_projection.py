@@ -390,7 +390,16 @@ _TE_POINTS = np.array([
 ])
 
 
-def test_feet_round_a_thin_edge_are_found(monkeypatch):
+@pytest.fixture
+def fresh_cache():
+    """The start-grid cache empty before and after, whatever the test does or fails at (tests
+    that change the grid's settings must not leave their grids to the next test)."""
+    proj_cache._cache.clear()
+    yield
+    proj_cache._cache.clear()
+
+
+def test_feet_round_a_thin_edge_are_found(monkeypatch, fresh_cache):
     """Near a centre of curvature of the trailing edge the closest foot can lie round the
     edge from the one the grid start leads to; the restarts moved round the edge find it.
     Referee: dense sampling of the edge region polished by local Newton."""
@@ -424,7 +433,7 @@ def _nominal():
 
 
 @pytest.mark.parametrize("make", [_nominal, blade_surface, torus_surface, creased_surface])
-def test_strip_bound_holds_inside_the_cells_round_a_sample(make):
+def test_strip_bound_holds_inside_the_cells_round_a_sample(make, fresh_cache):
     """The thin covers of the start grid (long cells round a tight nose): every surface point
     in the cells round a sample is at least ``strip_gap`` from any point, checked on surface
     points at random inside random cells and on points off them (periodic, clamped and
