@@ -160,6 +160,22 @@ def _tensor_rows(surface, u: np.ndarray, v: np.ndarray):
     return sp.coo_matrix((vals.ravel(), (rows, cols.ravel())), shape=(len(uu), nu * nv)).tocsr()
 
 
+def _solve_banded(K, B: np.ndarray) -> np.ndarray:
+    """``K X = B`` for the symmetric positive definite normal matrix of :func:`fit_to_cloud`.
+    Its poles are numbered u-major, so K is banded (about 4 x nv wide, plus the corners of the
+    periodic wrap): LU in that natural order fills little (measured on the fan: 0.1 s against
+    0.9 s with the default column ordering)."""
+    import scipy.sparse.linalg as spla
+
+    try:
+        X = spla.splu(K.tocsc(), permc_spec="NATURAL").solve(np.ascontiguousarray(B, dtype=float))
+    except RuntimeError as exc:
+        raise BladeReconError(f"the fit of the surface to the cloud is singular ({exc})") from None
+    if not np.all(np.isfinite(X)):
+        raise BladeReconError("the fit of the surface to the cloud is ill-conditioned (non-finite poles)")
+    return X
+
+
 def _end_planes(poles: np.ndarray) -> list:
     """For each end row of poles (hub, tip) lying in a plane (within 1e-9 of its size): the
     plane's unit normal, else None. A planar end section stays planar (``--solid`` caps it)."""
@@ -192,7 +208,6 @@ def fit_to_cloud(rec, cs: CloudSections, rounds: int = CLOUD_FIT_ROUNDS):
 
     import scipy.sparse as sp
 
-    from bladerecon.core.geometry.fitting import solve_sparse
     from bladerecon.core.geometry.projection import project_points_to_surface
     from bladerecon.core.geometry.spline import BSplineSurface
 
@@ -228,7 +243,7 @@ def fit_to_cloud(rec, cs: CloudSections, rounds: int = CLOUD_FIT_ROUNDS):
         A = _tensor_rows(S, u, v)
         M = (A.T @ A).tocsc()
         hold = CLOUD_FIT_HOLD * float(M.diagonal().mean())
-        poles = solve_sparse(M + hold * sp.identity(nu * nv, format="csc"), A.T @ X + hold * P0).reshape(nu, nv, 3)
+        poles = _solve_banded(M + hold * sp.identity(nu * nv, format="csc"), A.T @ X + hold * P0).reshape(nu, nv, 3)
         for col, n in zip((0, nv - 1), planes):
             if n is not None:       # the end section stays in its plane
                 move = poles[:, col] - S0.poles[:, col]
