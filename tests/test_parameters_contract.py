@@ -1068,3 +1068,44 @@ def test_a_small_section_measures_to_scale():
         assert getattr(small, key) == pytest.approx(0.05 * getattr(big, key), rel=1e-3), key
     for key in ("stagger_deg", "inlet_angle_deg", "outlet_angle_deg"):
         assert getattr(small, key) == pytest.approx(getattr(big, key), abs=0.01), key
+
+
+def test_edge_circle_fit_from_a_far_start_still_meets_the_circle():
+    """The exact arc and flanks of the first edge-circle test, started 2 mm and a factor 3 in radius
+    away: Levenberg-Marquardt's damping falls as it succeeds and reaches the circle to 1e-9 mm."""
+    c, r = np.array([1.0, 0.2]), 0.8
+    ang = np.pi + np.array([-0.4, 0.0, 0.5])
+    pa = c + r * np.column_stack([np.cos(ang), np.sin(ang)])
+    flanks = []
+    for sgn in (1, -1):
+        phi = sgn * (np.pi / 2 - 0.3)
+        foot = c + r * np.array([np.cos(phi), np.sin(phi)])
+        xs = foot[0] + np.linspace(0.0, 3.0, 10)
+        flanks.append(pm._flank_model(xs, foot[1] - (xs - foot[0]) / np.tan(phi)))
+    for start in ([1.5, 0.5, 0.5], [0.6, -0.1, 1.1]):
+        assert np.allclose(pm._fit_edge_circle(pa, flanks, np.array(start)), [1.0, 0.2, 0.8], atol=1e-9), start
+
+
+@pytest.mark.parametrize("region", [LE, TE])
+def test_edge_frame_axis_is_the_quadratic_camber_fit_within_15_percent(region):
+    """The edge circle's axis: the tangent of np.polyfit(…, 2) over the camber points within 15 % of
+    the chord from the edge (at least 4; else the 8 nearest), at x = the frontmost circle's radius,
+    pointing into the blade. All the camber points, exactly four in the window, and three (the 8
+    nearest then) against that referee to 1e-12."""
+    seg = _segment(_profile(DEFAULT, 0.0, n=400)[0])
+    cam, rad = pm.inscribed_circles(seg, 300)
+    u = (seg.te - seg.le) / seg.chord
+    e, d0 = (seg.le, u) if region == LE else (seg.te, -u)
+    perp = np.array([-d0[1], d0[0]])
+    xc, yc = (cam - e) @ d0, (cam - e) @ perp
+    win = np.flatnonzero(xc <= 0.15 * seg.chord)
+    for keep_in_window in (None, 4, 3):
+        sel = np.ones(len(cam), bool)
+        if keep_in_window is not None:
+            sel[win] = False
+            sel[win[np.argsort(xc[win])][:keep_in_window]] = True
+        near = (xc[sel] <= 0.15 * seg.chord) if keep_in_window != 3 else np.argsort(xc[sel])[:8]
+        slope = np.polyval(np.polyder(np.polyfit(xc[sel][near], yc[sel][near], 2)), rad[sel][np.argmin(xc[sel])])
+        want = (d0 + slope * perp) / np.hypot(1.0, slope)
+        ec = pm._edge_circle(seg, region, cam[sel], rad[sel])
+        assert np.allclose(ec.axis, want, atol=1e-12, rtol=0), keep_in_window
