@@ -412,3 +412,159 @@ def test_results_are_frozen():
     c = sc.choose_method([ellipse(60)[0]])
     with pytest.raises(dataclasses.FrozenInstanceError):
         c.method = "approximate"
+
+
+# --------------------------------------------------------------------------- after the first mutation run
+def test_reasons_give_the_exact_figures():
+    # the numbers in each reason are the choice's own, formatted as stated (µm)
+    plan = [ellipse(60, z=5.0 * k)[0] for k in range(3)]
+    c = sc.choose_method(plan)
+    assert c.reason.startswith(f"noise {c.noise_mm * 1000:.2f} µm against closest point spacing "
+                               f"{c.min_spacing_mm * 1000:.1f} µm (ratio {c.tangent_noise:.4f} ≤ 0.02)")
+    rng = np.random.default_rng(2)
+    dense = []
+    for k in range(2):
+        P, th = ellipse(2000, z=5.0 * k, spacing="random", seed=k)
+        dense.append(P + ellipse_normals(th) * rng.normal(0, 0.002, (2000, 1)))
+    c = sc.choose_method(dense)
+    assert c.reason.startswith(f"noise {c.noise_mm * 1000:.2f} µm against closest point spacing "
+                               f"{c.min_spacing_mm * 1000:.2f} µm (ratio {c.tangent_noise:.3f} > 0.02)")
+
+
+def test_a_point_measured_twice_exactly_has_zero_spacing():
+    # spacing 0: the ratio is sigma over the 1e-12 mm guard, and smoothing is chosen
+    P, th = ellipse(200)
+    noisy = P + ellipse_normals(th) * np.random.default_rng(8).normal(0, 0.002, (200, 1))
+    twice = np.insert(noisy, 50, noisy[50], axis=0)
+    c = sc.choose_method([twice])
+    assert c.min_spacing_mm == 0.0 and c.method == "approximate"
+    assert c.tangent_noise == pytest.approx(c.noise_mm / 1e-12, rel=1e-12)
+
+
+def _with_repeats(n_points, repeats, offset=1e-5):
+    """A 10 mm circle of n_points in all, ``repeats`` of them a second reading of the point before."""
+    base, _ = ellipse(n_points - repeats, a=10.0, b=10.0)
+    Q = base.copy()
+    for k in range(repeats):
+        at = 1 + k * (len(base) // max(repeats, 1)) + k
+        Q = np.insert(Q, at, Q[at - 1] + [offset, 0, 0], axis=0)
+    assert len(Q) == n_points
+    return Q
+
+
+def test_repeat_limits_at_their_exact_boundaries():
+    # one section in ten: 6 of 60 is not more than a tenth (kept, with 120 more points so the
+    # 5 % overall limit holds); 7 of 60 is
+    assert sc.repeated_measurements([_with_repeats(60, 6), _with_repeats(60, 0), _with_repeats(60, 0)]) is not None
+    assert sc.repeated_measurements([_with_repeats(60, 7), _with_repeats(60, 0), _with_repeats(60, 0)]) is None
+    # 5 % of all points: 10 of 200 is not more (kept); 10 of 199 is
+    assert sc.repeated_measurements([_with_repeats(100, 5), _with_repeats(100, 5)]) is not None
+    assert sc.repeated_measurements([_with_repeats(100, 5), _with_repeats(99, 5)]) is None
+
+
+def test_the_closing_pair_joins_the_first_group_when_point_one_repeats_point_zero():
+    P, _ = ellipse(60, a=10.0, b=10.0)
+    Q = np.insert(P, 1, P[0] + [1e-5, 0, 0], axis=0)          # point 1 repeats point 0
+    Q = np.vstack([Q, P[0] + [0, 1e-5, 0]])                    # and the last point repeats it too
+    g = sc.repeated_measurements([Q, P, P])[0]
+    assert g[0] == g[1] == g[-1] == 0 and len(np.unique(g)) == 60
+
+
+def _shifted_domain(curve, a=2.0, b=3.0):
+    """The same curve on the parameter domain [2, 5] (knots scaled by 3 and moved by 2)."""
+    return BSplineCurve(curve.poles, curve.knots * b + a, curve.mults, curve.degree, curve.periodic)
+
+
+def test_refinement_on_a_domain_that_is_not_zero_to_one(closed_curve):
+    c = _shifted_domain(closed_curve)
+    lo, hi = c.domain
+    assert (lo, hi) == (2.0, 5.0)
+    max_step = 0.5 * (hi - lo) / c.n_poles
+    t_true = np.array([2.9, 4.1])
+    P = evaluate_curve(c, t_true)
+    start = t_true + 5 * max_step
+    assert np.allclose(sc.refine_curve_parameters(c, P, start, iterations=1), start - max_step, atol=1e-13)
+    # wrapping past the end comes back at the beginning of [2, 5)
+    P0 = evaluate_curve(c, np.array([2.03]))
+    t = sc.refine_curve_parameters(c, P0, np.array([4.994]), iterations=30)
+    assert 2.0 <= t[0] < 5.0 and t[0] == pytest.approx(2.03, abs=1e-9)
+
+
+def test_refinement_is_newton_with_the_curvature_term(closed_curve):
+    # points 0.4 mm outside the ellipse's tight end (radius of curvature 0.45 mm): Newton with
+    # the full second-order term converges in 4 steps from 0.05 spans away; without the sign
+    # of the curvature term right it does not
+    lo, hi = closed_curve.domain
+    t_true = np.linspace(-0.01, 0.01, 5) % 1.0                 # round the tip at t = 0
+    C = evaluate_curve(closed_curve, t_true)
+    from bladerecon.core.geometry.bspline import curve_derivatives
+    d1 = curve_derivatives(closed_curve, t_true, 1)[:, 1]
+    nrm = np.column_stack([d1[:, 1], -d1[:, 0], np.zeros(5)])
+    nrm /= np.linalg.norm(nrm, axis=1, keepdims=True)
+    nrm *= np.sign(np.einsum("ij,ij->i", nrm, C))[:, None]      # outward
+    P = C + 0.4 * nrm
+    start = (t_true + 0.05 / closed_curve.n_poles) % 1.0
+    t = sc.refine_curve_parameters(closed_curve, P, start, iterations=4)
+    for k in range(5):
+        dist, _ = brute_foot(closed_curve, P[k])
+        got = np.linalg.norm(evaluate_curve(closed_curve, t[k:k + 1])[0] - P[k])
+        assert got == pytest.approx(dist, abs=1e-9), k
+
+
+def test_default_fairness_and_rounds_are_the_documented_ones():
+    P, _ = noisy_ellipse(sigma=0.004)
+    a = sc.fit_section_approximate(0, P, tolerance=0.02)
+    b = sc.fit_section_approximate(0, P, tolerance=0.02, fairness=1e-7, max_rounds=30)
+    assert np.array_equal(a.curve.poles, b.curve.poles) and np.array_equal(a.curve.knots, b.curve.knots)
+
+
+def test_at_an_impossible_tolerance_only_the_split_rule_stops():
+    # every split keeps two points a half, so up to n/2 spans can be reached; the default cap
+    # n // 2 leaves that to the split rule (40 points: more than 40 // 3 spans)
+    few = noisy_ellipse(40, sigma=0.01)[0]
+    n = sc.fit_section_approximate(0, few, tolerance=1e-7).curve.n_poles
+    assert 40 // 3 < n <= 40 // 2
+
+
+def test_the_tolerance_still_splits_when_an_rms_target_is_given():
+    # an RMS target no span reaches (1 mm) changes nothing: the tolerance alone decides
+    P, _ = noisy_ellipse(sigma=0.004)
+    a = sc.fit_section_approximate(0, P, tolerance=0.012)
+    b = sc.fit_section_approximate(0, P, tolerance=0.012, rms_target=1.0)
+    assert a.curve.n_poles == b.curve.n_poles > 8 and np.array_equal(a.curve.knots, b.curve.knots)
+
+
+def test_spans_of_four_points_or_more_are_judged_by_their_rms():
+    # 32 points round a circle (the 8 starting spans hold about 4 each), radial noise far above
+    # the RMS target: the loop stops only when no span of 4 points or more that could be split
+    # (two points a half) is above the target
+    th = np.linspace(0, 2 * np.pi, 32, endpoint=False)
+    r = 10.0 + np.random.default_rng(12).normal(0, 0.01, 32)
+    P = np.column_stack([r * np.cos(th), r * np.sin(th), np.zeros(32)])
+    s = sc.fit_section_approximate(0, P, tolerance=1.0, rms_target=1e-6)
+    knots, n = s.curve.knots, s.curve.n_poles
+    span = np.clip(np.searchsorted(knots, s.t_points, side="right") - 1, 0, n - 1)
+    count = np.bincount(span, minlength=n)
+    rms = np.sqrt(np.bincount(span, weights=s.residual ** 2, minlength=n) / np.maximum(count, 1))
+    mid = 0.5 * (knots[:-1] + knots[1:])
+    left = np.bincount(span, weights=(s.t_points < mid[span]).astype(float), minlength=n)
+    open_ = (count >= 4) & (rms > 1e-6) & (left >= 2) & (count - left >= 2)
+    assert n > 8 and not open_.any(), (n, count)
+
+
+def test_when_the_cap_leaves_room_for_few_knots_they_go_where_the_fit_is_worst():
+    # a circle of 800 points (20 starting spans) with one 50 µm bump and 1 µm noise elsewhere;
+    # at a 3 µm tolerance many spans ask for a knot but the cap leaves room for one: it goes to
+    # the span of the bump
+    th = np.linspace(0, 2 * np.pi, 800, endpoint=False)
+    r = 10.0 + np.random.default_rng(13).normal(0, 0.001, 800)
+    r[420:424] += 0.05                       # t ≈ 0.525: inside the span 0.50-0.55
+    P = np.column_stack([r * np.cos(th), r * np.sin(th), np.zeros(800)])
+    s = sc.fit_section_approximate(0, P, tolerance=0.003, max_poles=21)
+    assert s.curve.n_poles == 21
+    new = np.setdiff1d(np.round(s.curve.knots, 12), np.round(np.linspace(0, 1, 21), 12))
+    assert new.size == 1
+    bump = s.t_points[420:424]
+    span = np.linspace(0, 1, 21)
+    k = int(np.searchsorted(span, bump.mean(), side="right") - 1)
+    assert span[k] < new[0] < span[k + 1]
