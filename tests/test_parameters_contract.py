@@ -935,9 +935,10 @@ def _sparse_flank_section(placed=(2.0, 4.0, 7.0, 11.0, 16.0, 23.0, 27.0)):
     tt = np.arange(200000) / 200000
     xd = (B.point(h, tt) - tr.le) @ tr.u
     extra = []
-    for lo, hi in ((b[1], b[2]), (b[3], b[4])):
+    both = placed if isinstance(placed[0], tuple) else (placed, placed)       # (pressure, suction)
+    for (lo, hi), xs in zip(((b[1], b[2]), (b[3], b[4])), both):
         s = (tt >= lo) & (tt < hi)
-        extra += [tt[s][np.argmin(np.abs(xd[s] - xx))] for xx in placed]
+        extra += [tt[s][np.argmin(np.abs(xd[s] - xx))] for xx in xs]
     T = np.sort(np.r_[t[~((x > 0.3) & (x < 30.0))], extra])
     Q = B.point(h, T)
     xq = (Q - tr.le) @ tr.u
@@ -1109,3 +1110,18 @@ def test_edge_frame_axis_is_the_quadratic_camber_fit_within_15_percent(region):
         want = (d0 + slope * perp) / np.hypot(1.0, slope)
         ec = pm._edge_circle(seg, region, cam[sel], rad[sel])
         assert np.allclose(ec.axis, want, atol=1e-12, rtol=0), keep_in_window
+
+
+def test_a_flank_of_two_points_sets_its_line_but_no_noise():
+    """Two placed points on one flank (3 and 24 mm, the measured points again from 30 mm; the gap
+    limit raised), five on the other: the line through two points says nothing of the noise, the
+    flank rms is the other flank's alone (as in the five-point test); with two on both, None."""
+    for placed, want in ((((3.0, 24.0), (2.0, 4.0, 7.0, 11.0, 16.0, 23.0, 27.0)), 2),
+                         (((2.0, 4.0, 7.0, 11.0, 16.0, 23.0, 27.0), (3.0, 24.0)), 2), ((3.0, 24.0), None)):
+        Q, _ = _sparse_flank_section(placed)
+        seg = pm.segment_blade([Q], Z, flow=X, max_gap=50.0).sections[0]
+        m = pm.measure_section(seg)
+        assert sorted(m.le_fit["flank_points"]) == ([2, 5] if want else [2, 2]), placed
+        assert (m.le_fit["flank_rms"] is None) == (want is None), placed
+        if want:
+            assert 0 < m.le_fit["flank_rms"] < 0.01
