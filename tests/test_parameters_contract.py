@@ -1125,3 +1125,29 @@ def test_a_flank_of_two_points_sets_its_line_but_no_noise():
         assert (m.le_fit["flank_rms"] is None) == (want is None), placed
         if want:
             assert 0 < m.le_fit["flank_rms"] < 0.01
+
+
+@pytest.mark.parametrize("bad", ["zero", "half_chord", "0.6_chord", "nan", "negative"])
+def test_an_edge_circle_not_between_zero_and_half_the_chord_is_no_circle(monkeypatch, bad):
+    seg = _segment(_profile(DEFAULT, 0.0, n=400)[0])
+    cam, rad = pm.inscribed_circles(seg, 300)
+    L = seg.chord
+    r = {"zero": 0.0, "half_chord": 0.5 * L, "0.6_chord": 0.6 * L, "nan": float("nan"), "negative": -0.9}[bad]
+    monkeypatch.setattr(pm, "_fit_edge_circle", lambda pa, flanks, z: np.array([z[0], z[1], r]))
+    assert pm._edge_circle(seg, LE, cam, rad) is None
+
+
+def test_the_arc_rms_is_that_of_the_arc_points_a_quarter_radius_ahead_of_the_centre():
+    """The stadium's elliptic LE (its points known by construction): the rms of |p − c| − r over
+    the ellipse's points more than r/4 ahead of the fitted centre along the edge axis, to 1e-12."""
+    P = _stadium(0.0)
+    seg = _segment(P)
+    cam, rad = pm.inscribed_circles(seg)
+    ec = pm._edge_circle(seg, LE, cam, rad)
+    q = seg.frame.to_plane(P)
+    on_ellipse = P[:, 0] < 1.2                               # the LE piece: x < a
+    ahead = on_ellipse & ((q - ec.centre) @ ec.axis <= -0.25 * ec.radius)
+    assert 20 < ahead.sum() < on_ellipse.sum()
+    res = np.linalg.norm(q[ahead] - ec.centre, axis=1) - ec.radius
+    assert ec.rms == pytest.approx(float(np.sqrt(np.mean(res ** 2))), rel=1e-9, abs=1e-15)
+    assert ec.rms > 0.01                                     # an ellipse: far from its best circle
