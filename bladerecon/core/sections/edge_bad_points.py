@@ -306,30 +306,28 @@ def judge_edge(q: np.ndarray, index: np.ndarray, end: int, sense: float, thresho
         if d[counted].max() <= threshold and np.sqrt(np.mean(d[counted] ** 2)) <= floor:
             break          # (a run that pulled the model within the threshold still spoils its fit)
         worst = int(np.argmax(np.where(counted, d, -1.0)))
-        trials = []
-        for k in range(1, longest + 1):
-            for first in range(max(worst - reach - k + 1, 0), min(worst + reach, m - k) + 1):
-                if not counted[first:first + k].all():
-                    continue
-                w2 = w.copy()
-                w2[first:first + k] = 0.0
-                g2 = _fit(z, w2, g, sense, tip)
-                trials.append((_cost(z, w2, g2, sense, tip), first, k, g2))
+        def left_out(centre, before, after, start):
+            """Each run of 1..longest counted points from ``centre - before - k + 1`` to
+            ``centre + after`` left out in turn, the model refitted from ``start``."""
+            out = []
+            for k in range(1, longest + 1):
+                for first in range(max(centre - before - k + 1, 0), min(centre + after, m - k) + 1):
+                    if not counted[first:first + k].all():
+                        continue
+                    w2 = w.copy()
+                    w2[first:first + k] = 0.0
+                    g2 = _fit(z, w2, start, sense, tip)
+                    out.append((_cost(z, w2, g2, sense, tip), first, k, g2))
+            return out
+
+        trials = left_out(worst, reach, reach, g)
         # a run over the apex pulls the first model into another basin, and its worst point
         # may then lie off the run: the runs over the tip are also fitted from a start grown
         # without the tip's five points
         apex = w.copy()
         apex[max(tip - 2, 0):tip + 3] = 0.0
         if (apex > 0).sum() >= MIN_ZONE_POINTS - 5:
-            g_apex = _start(z, apex, sense, tip, 0.5 * threshold)
-            for k in range(1, longest + 1):
-                for first in range(max(tip - k + 1, 0), min(tip, m - k) + 1):
-                    if not counted[first:first + k].all():
-                        continue
-                    w2 = w.copy()
-                    w2[first:first + k] = 0.0
-                    g2 = _fit(z, w2, g_apex, sense, tip)
-                    trials.append((_cost(z, w2, g2, sense, tip), first, k, g2))
+            trials += left_out(tip, 0, 0, _start(z, apex, sense, tip, 0.5 * threshold))
         if not trials:
             break
         # the few best left-out runs again from fresh starts: the model the run pulled may sit
