@@ -1151,3 +1151,20 @@ def test_the_arc_rms_is_that_of_the_arc_points_a_quarter_radius_ahead_of_the_cen
     res = np.linalg.norm(q[ahead] - ec.centre, axis=1) - ec.radius
     assert ec.rms == pytest.approx(float(np.sqrt(np.mean(res ** 2))), rel=1e-9, abs=1e-15)
     assert ec.rms > 0.01                                     # an ellipse: far from its best circle
+
+
+def test_thickness_is_given_from_the_first_to_the_last_circle_centre():
+    """Offsets and fractions between the first two and the last two circle centres along the chord
+    get a thickness (interpolated), not None."""
+    P, _ = _profile(DEFAULT, 0.0, n=400)
+    seg = _segment(P)
+    m = pm.measure_section(seg)
+    le2, te2 = seg.frame.to_plane(m.le[None])[0], seg.frame.to_plane(m.te[None])[0]
+    chord2 = float(np.linalg.norm(te2 - le2))
+    x = np.sort((seg.frame.to_plane(m.camber) - le2) @ ((te2 - le2) / chord2))
+    gaps = [(x[0] + x[1]) / 2, (x[-2] + x[-1]) / 2]
+    assert x[1] - x[0] > 1e-9 and x[-1] - x[-2] > 1e-9
+    lo, hi = gaps[0], chord2 - gaps[1]
+    m2 = pm.measure_section(seg, (lo, hi), fractions=(gaps[0] / chord2, gaps[1] / chord2))
+    assert m2.thickness_at[f"le+{lo:g}"] is not None and m2.thickness_at[f"te+{hi:g}"] is not None
+    assert all(v is not None for v in m2.gauges["thickness_at_fraction"].values())
