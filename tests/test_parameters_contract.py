@@ -333,6 +333,11 @@ def test_max_circle_is_the_vertex_of_the_parabola_through_the_top_three():
     x = np.array([-3.0, -1.0, 0.0, 1.0, 2.0])
     r = 1.0 - 0.5 * (x - 0.2) ** 2
     assert np.allclose(pm._max_circle(x, r), (1.0, 0.2), atol=1e-12)
+    # the largest at the second point; a vertex far on the wide side of uneven steps (|xv| = 0.5 > 0.1)
+    x = np.array([0.0, 1.0, 2.0, 3.0])
+    assert np.allclose(pm._max_circle(x, 1.0 - (x - 1.2) ** 2), (1.0, 1.2), atol=1e-12)
+    x = np.array([0.0, 2.0, 2.1])
+    assert np.allclose(pm._max_circle(x, 1.0 - (x - 1.5) ** 2), (1.0, 1.5), atol=1e-12)
     # the largest at an end: that point itself
     assert pm._max_circle(np.array([0.0, 1.0, 2.0]), np.array([3.0, 2.0, 1.0])) == (3.0, 0.0)
     assert pm._max_circle(np.array([0.0, 1.0, 2.0]), np.array([1.0, 2.0, 3.0])) == (3.0, 2.0)
