@@ -449,8 +449,12 @@ def test_stacking_sweep_lean_height_and_twist_in_closed_form():
     # an axial direction along the span falls back to +y: lean along z × y = -x
     st = pm.stacking(params, Z, axial=np.array([0.0, 0.0, 5.0]))
     assert (st[1]["sweep"], st[1]["lean"], st[1]["height"]) == pytest.approx((0.25, -0.5, 10.0), abs=1e-12)
-    # a tilted span axis: the fallback keeps the axial direction normal to it
+    # a tilted span axis with the default axial direction: +x (normal to it already), lean along a × x
     a = np.array([0.0, 0.6, 0.8])
+    st = pm.stacking(params, a)
+    d = np.array([0.5, 0.25, 10.0])
+    assert (st[1]["sweep"], st[1]["lean"]) == pytest.approx((0.5, d @ np.cross(a, X)), abs=1e-12)
+    # a tilted span axis: the fallback keeps the axial direction normal to it
     st = pm.stacking(params, a, axial=a)
     ax = np.array([0.0, 0.8, -0.6])
     d = np.array([0.5, 0.25, 10.0])
@@ -808,6 +812,8 @@ def test_section_parameters_defaults():
     assert np.isnan(e.flank_rms)
     with pytest.raises(dataclasses.FrozenInstanceError):
         e.radius = 2.0
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        pm.BladeSegmentation([], "flow", None).le_rule = "nominal"
     with pytest.raises(dataclasses.FrozenInstanceError):
         p.chord = 1.0
 
@@ -1173,3 +1179,18 @@ def test_thickness_is_given_from_the_first_to_the_last_circle_centre():
     m2 = pm.measure_section(seg, (lo, hi), fractions=(gaps[0] / chord2, gaps[1] / chord2))
     assert m2.thickness_at[f"le+{lo:g}"] is not None and m2.thickness_at[f"te+{hi:g}"] is not None
     assert all(v is not None for v in m2.gauges["thickness_at_fraction"].values())
+
+
+@pytest.mark.parametrize("normal", [(-0.8, 0.0, 0.6), (0.0, -0.8, 0.6)])
+def test_canonical_loop_of_a_tilted_section_runs_counter_clockwise_about_plus_z(normal):
+    """A circle in a plane tilted 53° from z (normal n, n·z = 0.6 > 0.2): the default axis is +z, so
+    the loop runs counter-clockwise seen from +z (positive area of its xy projection)."""
+    n = np.array(normal)
+    e1 = np.cross(n, [0.0, 1.0, 0.0] if abs(n[1]) < 0.5 else [1.0, 0.0, 0.0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(n, e1)
+    th = np.linspace(0, 2 * np.pi, 40, endpoint=False)
+    P = 5.0 * (np.outer(np.cos(th), e1) + np.outer(np.sin(th), e2))
+    for Q in (P, P[::-1]):
+        out = pm.canonical_loop(Q)
+        assert _polygon_area_centroid(out[:, :2])[0] > 0
