@@ -247,9 +247,9 @@ def test_touch_angle_without_a_model_and_on_a_tangent_line():
     up = pm._flank_model(xs, np.full(9, 1.0))
     ang, x = pm._touch_angle(c, up, 1, 0.8)
     assert ang == pytest.approx(np.pi / 2, abs=1e-9) and x == pytest.approx(1.0, abs=1e-9)
-    # the lower line y = 0.2 - 0.8 (sign -1): also a right angle, the foot 0.3 ahead of the centre
-    # on a line rising towards the tip (y = -0.6 + 0.3 (x - 1) tan ...): use a tilted tangent
-    phi = 0.3                                             # the foot at angle -(pi/2 - phi) from +x
+    # a tilted tangent on the lower side (sign -1): the foot at -(π/2 + 0.3) from +x, i.e. π/2 - 0.3
+    # from the tip direction
+    phi = 0.3
     foot = c + 0.8 * np.array([np.cos(-np.pi / 2 - phi), np.sin(-np.pi / 2 - phi)])
     slope = np.tan(-phi)                                  # tangent direction ⟂ radius
     lo = pm._flank_model(xs, foot[1] + slope * (xs - foot[0]))
@@ -1093,8 +1093,8 @@ def test_a_small_section_measures_to_scale():
 
 
 def test_edge_circle_fit_from_a_far_start_still_meets_the_circle():
-    """The exact arc and flanks of the first edge-circle test, started 2 mm and a factor 3 in radius
-    away: Levenberg-Marquardt's damping falls as it succeeds and reaches the circle to 1e-9 mm."""
+    """The exact arc and flanks of the first edge-circle test, started 0.5 mm and 0.3 mm in radius
+    away (farther, the flanks' feet jump to other branches): the circle to 1e-9 mm."""
     c, r = np.array([1.0, 0.2]), 0.8
     ang = np.pi + np.array([-0.4, 0.0, 0.5])
     pa = c + r * np.column_stack([np.cos(ang), np.sin(ang)])
