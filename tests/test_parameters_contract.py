@@ -164,7 +164,10 @@ def test_measure_section_gives_the_analytic_sections_figures(case):
     for fit, n, at_le in ((m.le_fit, m.le_fit_points, True), (m.te_fit, m.te_fit_points, False)):
         assert set(fit) == {"arc_points", "flank_points", "rms", "flank_rms"}
         assert fit["arc_points"] == n
-        assert abs(n - _arc_points_truth(blade, h, t, P, tr, at_le)) <= 1
+        # exact but on the hub's LE, where one point 0.02 rad inside the true joint lies outside the
+        # fitted one (13 against 12)
+        slack = 1 if (case, at_le) == ("default-hub", True) else 0
+        assert abs(n - _arc_points_truth(blade, h, t, P, tr, at_le)) <= slack
         assert len(fit["flank_points"]) == 2 and min(fit["flank_points"]) >= 20
         assert 0 <= fit["rms"] < 2e-3 and 0 < fit["flank_rms"] < 2e-3
 
