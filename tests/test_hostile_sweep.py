@@ -8,6 +8,8 @@ read as its LF twin is.
 """
 from __future__ import annotations
 
+import os
+import signal
 from pathlib import Path
 
 import numpy as np
@@ -344,3 +346,36 @@ def test_a_collinear_section_is_said_to_lie_on_a_line_not_to_cross(capfd, tmp_pa
     path = _plan_rows(tmp_path, "line.csv", on_a_line)
     line = refused(capfd, ["reconstruct", path, "-o", tmp_path / "x.step", "--quiet"], (tmp_path,))
     assert "section '1' (lines 67–131) has no area" in line and "lie on a line" in line and "cross" not in line, line
+
+
+@pytest.mark.parametrize("sig,status", [(signal.SIGTERM, 143), (signal.SIGINT, 130)])
+def test_a_signal_while_the_command_starts_is_one_line_never_a_traceback(tmp_path, sig, status):
+    """SIGTERM or Ctrl-C while the command loads its modules (numpy, scipy, FreeCAD: the first
+    half second) ended with a traceback and status 1 (SIGTERM raised outside the command's own
+    handler), and inside FreeCAD's start-up as "FreeCAD found but this Python cannot load it"
+    with status 2 (seen on FreeCAD 1.0 under load, 2026-11-27). At every delay: the signal's
+    status and one line, or (before Python's handlers exist) killed by the signal itself, or
+    done before it came."""
+    import subprocess
+    import sys
+    import time
+
+    root = Path(__file__).resolve().parent.parent
+    seen = set()
+    for delay in (0.0, 0.03, 0.06, 0.1, 0.15, 0.2, 0.3, 0.45, 0.6):
+        proc = subprocess.Popen([sys.executable, "-m", "bladerecon", "deviation",
+                                 str(root / "resources" / "sample" / "measured.csv"), "--nominal",
+                                 str(root / "resources" / "sample" / "nominal.step"), "--quiet"],
+                                env=dict(os.environ, PYTHONPATH=str(root)), cwd=tmp_path,
+                                stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                                preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+        time.sleep(delay)
+        proc.send_signal(sig)
+        _, err = proc.communicate(timeout=120)
+        seen.add(proc.returncode)
+        assert proc.returncode in (status, -sig, 0), (delay, proc.returncode, err)
+        assert "Traceback" not in err and len(err.strip().splitlines()) <= 1, (delay, err)
+        if proc.returncode == status:
+            assert err.strip() in ("bladerecon: terminated (SIGTERM); no output was completed",
+                                   "bladerecon: interrupted; no output was completed"), err
+    assert status in seen, seen

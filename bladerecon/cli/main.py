@@ -185,7 +185,16 @@ def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     previous = signal.signal(signal.SIGTERM, _on_sigterm) if _main_thread() else None
     try:
-        code = _main(argv)
+        try:
+            code = _main(argv)
+        # while the parser's modules load (numpy, scipy: a few tenths of a second), before any
+        # work: one line and the usual status, not a traceback with status 1
+        except KeyboardInterrupt:
+            print("bladerecon: interrupted; no output was completed", file=sys.stderr)
+            code = 130
+        except Terminated:
+            print("bladerecon: terminated (SIGTERM); no output was completed", file=sys.stderr)
+            code = 143
     finally:
         if previous is not None:
             signal.signal(signal.SIGTERM, previous)
@@ -204,11 +213,16 @@ def _main_thread() -> bool:
 
 
 def _main(argv: list[str]) -> int:
-    missing = missing_modules(BASE_MODULES)
-    if missing:    # the parser itself needs numpy (the command modules import it)
-        print(interpreter_error(missing, argv), file=sys.stderr)
-        return 2
-    parser = build_parser()
+    from bladerecon.core.io.outputs import signals_held
+
+    # Ctrl-C and SIGTERM held while the modules load and delivered after: raised inside numpy's
+    # or FreeCAD's start-up they came out as an ImportError ("numpy cannot be imported", status 1)
+    with signals_held():
+        missing = missing_modules(BASE_MODULES)
+        if missing:    # the parser itself needs numpy (the command modules import it)
+            print(interpreter_error(missing, argv), file=sys.stderr)
+            return 2
+        parser = build_parser()
     args = parser.parse_args(argv)
     missing = missing_modules(needed_modules(args))
     if missing:    # before any output: a STEP written and then no report is worse than nothing

@@ -140,7 +140,13 @@ def stdout_to_stderr() -> Iterator[None]:
 
 
 def _import_modules() -> tuple[ModuleType, ModuleType]:
-    with stdout_to_stderr():
+    # Ctrl-C and SIGTERM held until FreeCAD is loaded: raised inside FreeCAD's start-up (which
+    # runs Python code) they came out as an empty ImportError, and the command blamed the
+    # install ("cannot load it", exit 2) instead of ending with 130/143 (seen on FreeCAD 1.0
+    # under load, 2026-11-27)
+    from bladerecon.core.io.outputs import signals_held
+
+    with signals_held(), stdout_to_stderr():
         import FreeCAD  # noqa: N813  (FreeCAD's own module name)
         import Part
     return FreeCAD, Part
