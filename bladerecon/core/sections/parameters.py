@@ -696,8 +696,11 @@ def canonical_loop(points: np.ndarray, span_axis: np.ndarray | None = None) -> n
     a = np.array([0.0, 0.0, 1.0]) if span_axis is None else np.asarray(span_axis, float)
     c = P - P.mean(axis=0)
     n = np.linalg.svd(c, full_matrices=False)[2][-1]
-    if abs(n @ a) < 0.2:            # a section lying along the span axis: use its own normal
-        a = n
+    if abs(n @ a) < 0.2:            # a section lying along the span axis: use its own normal,
+        # its sign fixed by its largest component (the SVD's sign is LAPACK's choice: it
+        # differed with the rows' order on FreeCAD 1.0's numpy 2.2, and the loop ran the other way)
+        k = int(np.argmax(np.abs(n)))
+        a = n if n[k] > 0 else -n
     nxt = np.roll(c, -1, axis=0)
     area = float(np.cross(c, nxt).sum(axis=0) @ a)
     if area < 0:
