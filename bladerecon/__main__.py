@@ -2,6 +2,10 @@
 """``python3 -m bladerecon``: see :mod:`bladerecon.cli.main`."""
 import sys
 
-from bladerecon.cli.main import main
+try:
+    from bladerecon.cli.main import main
+except KeyboardInterrupt:       # Ctrl-C while the first modules load: one line, as later
+    print("bladerecon: interrupted; no output was completed", file=sys.stderr)
+    sys.exit(130)
 
 sys.exit(main())
