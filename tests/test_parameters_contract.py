@@ -26,6 +26,7 @@ from bladerecon.core.errors import BladeReconError
 from bladerecon.core.sections import parameters as pm
 from bladerecon.core.sections.segmentation import LE, PRESSURE, SUCTION, TE, signed_curvature
 from bladerecon.samples.blade import SampleBlade, t_at_length_fraction
+from test_section_parameters import _stadium  # the elliptic-LE profile with known edges
 
 Z = np.array([0.0, 0.0, 1.0])
 X = np.array([1.0, 0.0, 0.0])
@@ -290,9 +291,9 @@ def _g1_referee(pa, flank_xy, z_at):
     return least_squares(res, z_at + [0.01, -0.01, 0.01], xtol=1e-14, ftol=1e-14, gtol=1e-14).x
 
 
-def test_edge_circle_fit_meets_an_exact_arc_and_two_tangent_flanks():
-    """Centre (1, 0.2), radius 0.8; three arc points round the tip (−x) and two flanks tangent at
-    ±(90° + 0.3 rad) from the tip: the fit returns the circle to 1e-9 mm from a start 0.1 off."""
+def _exact_edge():
+    """Centre (1, 0.2), radius 0.8: three arc points round the tip (−x) and two flanks tangent
+    at ±(90° − 0.3 rad): (arc points, flank models)."""
     c, r = np.array([1.0, 0.2]), 0.8
     ang = np.pi + np.array([-0.4, 0.0, 0.5])
     pa = c + r * np.column_stack([np.cos(ang), np.sin(ang)])
@@ -302,6 +303,13 @@ def test_edge_circle_fit_meets_an_exact_arc_and_two_tangent_flanks():
         foot = c + r * np.array([np.cos(phi), np.sin(phi)])
         xs = foot[0] + np.linspace(0.0, 3.0, 10)
         flanks.append(pm._flank_model(xs, foot[1] - (xs - foot[0]) / np.tan(phi)))
+    return pa, flanks
+
+
+def test_edge_circle_fit_meets_an_exact_arc_and_two_tangent_flanks():
+    """Centre (1, 0.2), radius 0.8; three arc points round the tip (−x) and two flanks tangent at
+    ±(90° + 0.3 rad) from the tip: the fit returns the circle to 1e-9 mm from a start 0.1 off."""
+    pa, flanks = _exact_edge()
     z = pm._fit_edge_circle(pa, flanks, np.array([1.1, 0.1, 0.7]))
     assert np.allclose(z, [1.0, 0.2, 0.8], atol=1e-9)
     # one arc point and the two flanks already fix it
@@ -643,20 +651,6 @@ def test_only_the_te_failing_keeps_the_le_circle(monkeypatch):
     assert abs(m.le_radius / 0.9 - 1) < 0.005 and m.te_radius is None
     assert m.gauges["le_camber"] is not None and m.gauges["te_camber"] is None
     assert len(m.warnings) == 1 and m.warnings[0].startswith("section 0: no measured point on the trailing edge")
-
-
-def _stadium(z, a=1.2, b=0.5, length=30.0):
-    """A closed ccw profile (n, 3): elliptic LE (semi-axes a along the chord, b across), straight
-    flanks bent by a slight camber, semicircular TE of radius b."""
-    xs = np.linspace(a, length, 300, endpoint=False)
-    te = np.linspace(-np.pi / 2, np.pi / 2, 80, endpoint=False)
-    le = np.linspace(np.pi / 2, 3 * np.pi / 2, 121)[1:-1]
-    p = np.vstack([np.column_stack([xs, np.full(xs.size, -b)]),
-                   np.column_stack([length + b * np.cos(te), b * np.sin(te)]),
-                   np.column_stack([xs[::-1], np.full(xs.size, b)]),
-                   np.column_stack([a + a * np.cos(le), b * np.sin(le)])])
-    bend = 0.02 * p[:, 0] * (length - p[:, 0]) / length
-    return np.column_stack([p[:, 0], p[:, 1] + bend, np.full(len(p), z)])
 
 
 def test_an_elliptic_edge_is_reported_not_round_in_so_many_words():
@@ -1098,15 +1092,7 @@ def test_a_small_section_measures_to_scale():
 def test_edge_circle_fit_from_a_far_start_still_meets_the_circle():
     """The exact arc and flanks of the first edge-circle test, started 0.5 mm and 0.3 mm in radius
     away (farther, the flanks' feet jump to other branches): the circle to 1e-9 mm."""
-    c, r = np.array([1.0, 0.2]), 0.8
-    ang = np.pi + np.array([-0.4, 0.0, 0.5])
-    pa = c + r * np.column_stack([np.cos(ang), np.sin(ang)])
-    flanks = []
-    for sgn in (1, -1):
-        phi = sgn * (np.pi / 2 - 0.3)
-        foot = c + r * np.array([np.cos(phi), np.sin(phi)])
-        xs = foot[0] + np.linspace(0.0, 3.0, 10)
-        flanks.append(pm._flank_model(xs, foot[1] - (xs - foot[0]) / np.tan(phi)))
+    pa, flanks = _exact_edge()
     for start in ([1.5, 0.5, 0.5], [0.6, -0.1, 1.1]):
         assert np.allclose(pm._fit_edge_circle(pa, flanks, np.array(start)), [1.0, 0.2, 0.8], atol=1e-9), start
 
