@@ -348,6 +348,61 @@ def test_a_collinear_section_is_said_to_lie_on_a_line_not_to_cross(capfd, tmp_pa
     assert "section '1' (lines 67–131) has no area" in line and "lie on a line" in line and "cross" not in line, line
 
 
+def _python_itself_interrupted(err: str, sig) -> bool:
+    """Ctrl-C in the first ~40 ms, while CPython imports its own modules (``site``, then runpy
+    finding the package and writing its bytecode cache), before the first line of bladerecon
+    runs: CPython prints its own traceback ("Fatal Python error: init_import_site", status 1, or
+    runpy's frames, status -2; seen on FreeCAD 1.0's Python 3.13 under load). Nothing of ours can
+    run there; only a traceback with no frame of ours, ending in KeyboardInterrupt, is let
+    through."""
+    if sig != signal.SIGINT or "bladerecon" in err:
+        return False
+    if err.startswith("Fatal Python error: init_import_site"):    # site and its .pth files
+        return True
+    frames = [line for line in err.splitlines() if line.lstrip().startswith('File "')]
+    return (err.strip().endswith("KeyboardInterrupt") and bool(frames)
+            and all('File "<frozen ' in line for line in frames))      # runpy finding the package
+
+
+def test_a_signal_swallowed_by_an_import_callback_still_stops_the_command(tmp_path):
+    """SIGTERM raised inside a weakref callback (importlib's module-lock callback, a Cython
+    module's set-up) was printed as "Exception ignored" with a traceback, and the command ran on
+    to the end with status 0 (FreeCAD 1.0 under load, 2026-11-27). It must stop the command a
+    moment later with the usual line and 143, and the work after it must not finish."""
+    import subprocess
+    import sys
+
+    root = Path(__file__).resolve().parent.parent
+    marker = tmp_path / "ran_on.txt"
+    script = f"""
+import os, signal, sys, time, weakref
+from bladerecon.cli import main as m
+
+def fake_main(argv):
+    class Held: pass
+    def callback(_):
+        os.kill(os.getpid(), signal.SIGTERM)     # the handler raises inside this callback
+        for _ in range(100): pass
+    held = Held()
+    ref = weakref.ref(held, callback)
+    del held
+    start = time.monotonic()
+    while time.monotonic() - start < 5.0:      # the command's work: stopped a moment later
+        pass
+    open({str(marker)!r}, "w").write("ran on")
+    return 0
+
+m._main = fake_main
+code = m.main(["x"])
+print("code", code)
+"""
+    proc = subprocess.run([sys.executable, "-c", script], env=dict(os.environ, PYTHONPATH=str(root)),
+                          cwd=tmp_path, capture_output=True, text=True, timeout=60)
+    assert proc.stdout.strip() == "code 143", (proc.stdout, proc.stderr)
+    assert proc.stderr.strip() == "bladerecon: terminated (SIGTERM); no output was completed", proc.stderr
+    assert not marker.exists()
+
+
 @pytest.mark.parametrize("sig,status", [(signal.SIGTERM, 143), (signal.SIGINT, 130)])
 def test_a_signal_while_the_command_starts_is_one_line_never_a_traceback(tmp_path, sig, status):
     """SIGTERM or Ctrl-C while the command loads its modules (numpy, scipy, FreeCAD: the first
@@ -373,6 +428,8 @@ def test_a_signal_while_the_command_starts_is_one_line_never_a_traceback(tmp_pat
         proc.send_signal(sig)
         _, err = proc.communicate(timeout=120)
         seen.add(proc.returncode)
+        if _python_itself_interrupted(err, sig):
+            continue
         assert proc.returncode in (status, -sig, 0), (delay, proc.returncode, err)
         assert "Traceback" not in err and len(err.strip().splitlines()) <= 1, (delay, err)
         if proc.returncode == status:
