@@ -150,9 +150,14 @@ def _hull_area(q: np.ndarray) -> float:
         return 0.0
 
 
-def _trend_ends(z: np.ndarray, area: np.ndarray, lo: float, hi: float) -> tuple[int, int, float]:
+def _trend_ends(z: np.ndarray, area: np.ndarray, lo: float, hi: float, local: bool = False) -> tuple[int, int, float]:
     """First and last probe (indices) still on the quadratic trend of log(area) of the middle half,
-    and the limit (log area) that was used."""
+    and the limit (log area) that was used.
+
+    ``local``: a probe is off the trend when it leaves the straight continuation of the last two
+    probes' departures from it, not the quadratic itself. For node rows, each a whole section
+    of the blade: a smooth airfoil whose area bends away from the middle half's quadratic near
+    its ends (a fan's tip row 4 % off it) is kept; a fillet or cap still jumps off in one row."""
     n_probe = len(z)
     mid = slice(n_probe // 4, 3 * n_probe // 4)
     good = area > 0
@@ -172,7 +177,12 @@ def _trend_ends(z: np.ndarray, area: np.ndarray, lo: float, hi: float) -> tuple[
         k = start
         while 0 <= k + step < n_probe:
             nxt, nxt2 = k + step, k + 2 * step
-            bad = abs(rel[nxt]) > limit and (not 0 <= nxt2 < n_probe or abs(rel[nxt2]) > limit)
+            if local:
+                drift = rel[k] - rel[k - step] if np.isfinite(rel[k - step]) else 0.0
+                pred = rel[k] + drift
+                bad = abs(rel[nxt] - pred) > limit and (not 0 <= nxt2 < n_probe or abs(rel[nxt2] - pred - drift) > limit)
+            else:
+                bad = abs(rel[nxt]) > limit and (not 0 <= nxt2 < n_probe or abs(rel[nxt2]) > limit)
             if bad:
                 return k
             k = nxt
@@ -229,10 +239,10 @@ def _row_span(P: np.ndarray, h: np.ndarray, axis: np.ndarray, rows: np.ndarray) 
     e2 = np.cross(axis, e1)
     area = np.array([_hull_area(np.column_stack([P[m] @ e1, P[m] @ e2]))
                      for m in (np.abs(h - r) <= 1e-5 for r in rows)])
-    k_lo, k_hi, _ = _trend_ends(rows, area, float(rows[0]), float(rows[-1]))
+    k_lo, k_hi, _ = _trend_ends(rows, area, float(rows[0]), float(rows[-1]), local=True)
     lo = float(rows[min(k_lo + 1, k_hi)] if k_lo > 0 else rows[0])
     hi = float(rows[max(k_hi - 1, k_lo)] if k_hi < len(rows) - 1 else rows[-1])
-    return lo, hi, {"method": "convex-hull area of every node row against a quadratic trend of the middle half",
+    return lo, hi, {"method": "convex-hull area of every node row against the continued trend from the middle half",
                     "trimmed_at_start": bool(k_lo > 0), "trimmed_at_end": bool(k_hi < len(rows) - 1)}
 
 
