@@ -326,9 +326,10 @@ def test_smooth_rows_are_kept_and_a_fillet_still_trimmed():
 @pytest.mark.timeout(400)
 def test_fan_on_node_rows_by_one_command_keeps_every_row(tmp_path):
     """A fan's CFD nodes on 41 rows, by the one command a user runs: all 41 rows are the
-    sections (span 60–180 mm) and every airfoil node is within 0.025 mm of the STEP (measured
-    0.020 mm at the edges on 2026-11-27; the issue asks 0.01 mm), by ``deviation`` and, on the
-    worst nodes, by OpenCASCADE's distToShape."""
+    sections (span 60–180 mm), each row whole (thinned to 600 nodes it lost its clustered edge
+    nodes: 0.020 mm), and every airfoil node is within the issue's 0.01 mm of the STEP (measured
+    0.0062 mm on 2026-11-27), by ``deviation`` and, on the worst nodes, by OpenCASCADE's
+    distToShape."""
     from fc_fixtures import require_freecad
 
     FreeCAD, Part = require_freecad()
@@ -349,9 +350,9 @@ def test_fan_on_node_rows_by_one_command_keeps_every_row(tmp_path):
     out = tmp_path / "dev.csv"
     d = _cli("deviation", str(nodes), "--nominal", str(step), "--csv", str(out), "--json", "--quiet")
     assert d.returncode == 0, d.stderr
-    assert json.loads(d.stdout)["max_abs"] < 0.025
+    assert json.loads(d.stdout)["max_abs"] < 0.01
     dev = np.abs(np.loadtxt(out, delimiter=",", skiprows=1, usecols=(3,)))
     worst = np.argsort(dev)[-40:]
     shape = Part.read(str(step))
     occ = np.array([Part.Vertex(FreeCAD.Vector(*A[i])).distToShape(shape)[0] for i in worst])
-    assert np.abs(occ - dev[worst]).max() < 1e-4 and occ.max() < 0.025
+    assert np.abs(occ - dev[worst]).max() < 1e-4 and occ.max() < 0.01
