@@ -188,13 +188,14 @@ def _reconstruct(args: argparse.Namespace, say, step: str | None, report: str | 
     else:
         rec = reconstruct(pts, sections.span_axis, method=args.method, tolerance=args.tolerance,
                           first_point_is_measured=measured_start)
-        if autocloud.is_auto(args) and compensation is None and args.tolerance is None:
-            # a whole-blade cloud: the surface through its sections fitted to every node (issue 25;
-            # not with --tolerance, a bound on the section points, nor with a probe compensation of
-            # the section points only)
+        if autocloud.is_auto(args):
+            # a whole-blade cloud: the surface through its sections fitted to every node (issue 25),
+            # the nodes moved by the probe compensation as the section points were; --tolerance is
+            # then judged on the nodes
             from bladerecon.core.sections.blade_cloud import fit_to_cloud
             say("fitting the surface to the whole cloud")
-            rec, cloud_fit, cloud_dist = fit_to_cloud(rec, args._auto_cloud)
+            rec, cloud_fit, cloud_dist = fit_to_cloud(rec, args._auto_cloud,
+                                                      offset=0.0 if compensation is None else compensation["offset_mm"])
     if args.surface == "local-bicubic":
         cloud_dist = None           # the patches are another surface: judged by the section points
         rec = realdata.local_bicubic(rec, args.patches_around, args.fair_surface, pts, args.fair_threshold)
@@ -212,10 +213,10 @@ def _reconstruct(args: argparse.Namespace, say, step: str | None, report: str | 
         f"fit max {fit_dist.max() * 1000:.2f} µm"
         + ("" if cloud_dist is None else f" ({len(cloud_dist)} cloud nodes)"))
     # --tolerance asked for a largest distance: say when the fit does not reach it (even with --quiet)
-    tolerance_met = None if args.tolerance is None else bool(proj.distance.max() <= args.tolerance)
+    tolerance_met = None if args.tolerance is None else bool(fit_dist.max() <= args.tolerance)
     if tolerance_met is False:
         print(f"bladerecon: warning: tolerance not met: the largest distance of a measured point is "
-              f"{proj.distance.max() * 1000:.1f} µm, over the {args.tolerance * 1000:.1f} µm asked "
+              f"{fit_dist.max() * 1000:.1f} µm, over the {args.tolerance * 1000:.1f} µm asked "
               f"({surf.shape[0]} x {surf.shape[1]} poles)", file=sys.stderr, flush=True)
 
     summary: dict = {
@@ -230,7 +231,8 @@ def _reconstruct(args: argparse.Namespace, say, step: str | None, report: str | 
         "fit": _stats(fit_dist),
     }
     if cloud_dist is not None:
-        summary["fit"]["points"] = "cloud nodes between the end sections"
+        summary["fit"]["points"] = ("cloud nodes between the end sections"
+                                    + ("" if compensation is None else ", moved by the compensation"))
         summary["fit_section_points"] = _stats(proj.distance)
     if seg_info is not None:
         summary["segmented"] = {"continuity": args.continuity, "sections": seg_info,

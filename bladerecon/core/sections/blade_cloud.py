@@ -187,7 +187,17 @@ def _end_planes(poles: np.ndarray) -> list:
     return out
 
 
-def fit_to_cloud(rec, cs: CloudSections, rounds: int = CLOUD_FIT_ROUNDS):
+def _outward(foot: np.ndarray, normal: np.ndarray, v: np.ndarray, lo: float, hi: float, bins: int = 20) -> float:
+    """+1 when the surface's normals point out of the blade, else -1: the sign of the sum over the
+    feet of normal . (foot - the mean foot of its span band)."""
+    band = np.clip(((v - lo) / max(hi - lo, 1e-300) * bins).astype(int), 0, bins - 1)
+    count = np.bincount(band, minlength=bins).astype(float)
+    middle = np.stack([np.bincount(band, foot[:, k], minlength=bins) for k in range(3)], axis=1)
+    middle /= np.maximum(count, 1.0)[:, None]
+    return 1.0 if float(np.einsum("ij,ij->", normal, foot - middle[band])) >= 0.0 else -1.0
+
+
+def fit_to_cloud(rec, cs: CloudSections, rounds: int = CLOUD_FIT_ROUNDS, offset: float = 0.0):
     """The surface skinned through the sections of ``cs``, fitted by least squares to every
     cloud node between the end sections: ``(reconstruction with the fitted surface, info,
     distances (mm) of the fitted nodes from it)`` — the nodes, not the section points, are the
@@ -203,6 +213,12 @@ def fit_to_cloud(rec, cs: CloudSections, rounds: int = CLOUD_FIT_ROUNDS):
     of the slabs are left out; a planar end row of poles moves in its plane only. Without the
     cloud (``cs.cloud`` None) or with fewer nodes than poles, ``rec`` is returned as it is (and
     ``distances`` None).
+
+    ``offset`` (mm, probe radius + coating; the sections of ``rec`` already moved by it): every
+    node is first moved that far toward the material along the sections' surface normal at its
+    foot, so that the cloud and the sections describe the same surface; the distances are the
+    moved nodes'. The material side: the surface's normals point away from the middle of the
+    section they belong to, taken over all nodes (one orientation for the whole surface).
     """
     import dataclasses
 
@@ -223,6 +239,9 @@ def fit_to_cloud(rec, cs: CloudSections, rounds: int = CLOUD_FIT_ROUNDS):
     pr = project_points_to_surface(S0, X)
     lo, hi = S0.v_domain
     span = hi - lo
+    if offset:
+        X = X - offset * _outward(pr.foot, pr.normal, pr.v, lo, hi) * pr.normal
+        pr = project_points_to_surface(S0, X, pr.u, pr.v)
     inside = (pr.v > lo + 1e-9 * span) & (pr.v < hi - 1e-9 * span)
     rms0 = float(np.sqrt(np.mean(pr.distance[inside] ** 2))) if inside.any() else 0.0
     slab = np.zeros(len(X), dtype=bool)
