@@ -31,7 +31,16 @@ PYTHON = "/usr/bin/python3"
 #: name -> (paths to mutate, test files that cover them [, pytest arguments that leave out tests
 #: too slow to run once per mutant: the score is then a lower bound of the whole suite's])
 MODULES: dict[str, tuple[str, ...]] = {
-    "projection": ("bladerecon/core/geometry/projection/", "tests/test_projection.py"),
+    "projection": ("bladerecon/core/geometry/projection/", "tests/test_projection_contract.py tests/test_projection.py",
+                   "--deselect tests/test_projection.py::test_speed_one_million_points_print "
+                   "--deselect tests/test_projection.py::test_feet_round_a_thin_edge_are_found "
+                   "--deselect tests/test_projection.py::test_collapsed_low_degree_and_far "
+                   "--deselect tests/test_projection.py::test_against_opencascade_on_a_thin_blade "
+                   "--deselect tests/test_projection.py::test_blocks_and_threads_give_the_same_answer "
+                   "--deselect tests/test_projection.py::test_forked_blocks_threads_and_one_process_agree "
+                   "--deselect tests/test_projection.py::test_torus_orthogonality_and_brute_force "
+                   "--deselect tests/test_projection.py::test_creased_surface_feet_on_and_beside_the_crease "
+                   "--deselect tests/test_projection.py::test_blade_against_polished_brute_force_with_points_around_the_edges"),
     "alignment": ("bladerecon/core/analysis/alignment.py", "tests/test_alignment_contract.py tests/test_alignment.py"),
     "section_curves": ("bladerecon/core/surface/section_curves.py", "tests/test_section_curves_contract.py tests/test_reconstruct.py",
                        "--deselect tests/test_reconstruct.py::test_plan_layout_within_50_um_of_truth "
