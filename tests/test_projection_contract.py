@@ -411,6 +411,12 @@ def test_paraboloid_axis_points_choose_the_steeper_pair_of_feet():
     assert np.abs(np.abs(res.foot[far, 0]) - x_foot).max() < 1e-8
     assert np.abs(res.foot[far, 1]).max() < 1e-8
     assert np.all(res.signed > 0)
+    # just off the axis, near the vertex's centres of curvature: two roots side by side
+    x0, h0 = np.meshgrid([-0.3, 0.02, 0.15], [4.6, 5.3, 6.0, 10.4])
+    Q = np.column_stack([x0.ravel(), 0.03 * x0.ravel(), h0.ravel()])
+    near = project_points_to_surface(s, Q)
+    _, _, _, rd = _brute_force(s, Q, 100, 100)
+    assert np.abs(near.distance - rd).max() < TIGHT
 
 
 def test_surface_derivatives_fast_closed_form_and_scipy(monkeypatch):
@@ -443,6 +449,36 @@ def test_surface_derivatives_fast_closed_form_and_scipy(monkeypatch):
         assert np.abs(g - w).max() < 1e-9 * max(1.0, np.abs(w).max())
     single = surface_derivatives_fast(b, 0.3, 0.4)
     assert single[0].shape == (1, 3) and np.abs(single[0] - ref([0.3], [0.4])).max() < 1e-12
+
+
+def saddle() -> BSplineSurface:
+    """The hyperbolic paraboloid z = c x y (a twisted bilinear patch, S_uv != 0), x = 10 (2u - 1),
+    y = 10 (2v - 1): bicubic with interior knots."""
+    def f(u, v):
+        x, y = np.broadcast_arrays(10 * (2 * u - 1), 10 * (2 * v - 1))
+        return np.stack([x, y, 0.08 * x * y], axis=-1)
+    return _interpolated_surface(f, np.array([0, 0.4, 1.0]), np.array([4, 1, 4]),
+                                 np.array([0, 0.6, 1.0]), np.array([4, 1, 4]), 3, 3)
+
+
+def test_newton_on_a_twisted_patch_converges_in_few_steps():
+    """On the saddle z = c x y, from starts ~1 mm off the feet, Newton with the exact
+    Hessian (its S_uv.(S - P) cross term matters here) converges within 3 iterations for
+    every point (it needs one), to the brute-force referee's distance; with max_iter = 0
+    none has converged. Catches a wrong Hessian (cross term, sign), which still creeps to
+    the foot through the trust region but only linearly."""
+    s = saddle()
+    ref = _RefSurface(s)
+    rng = np.random.default_rng(14)
+    u, v = rng.uniform(0.2, 0.8, 60), rng.uniform(0.2, 0.8, 60)
+    P = ref(u, v) + ref.normal(u, v) * rng.uniform(-4, 4, 60)[:, None]
+    res = project_points_to_surface(s, P, u + 0.06, v - 0.05, max_iter=3)
+    assert res.converged.all()
+    _, _, _, rd = _brute_force(s, P[:10], 80, 80)
+    assert np.abs(res.distance[:10] - rd).max() < TIGHT
+    full = project_points_to_surface(s, P)
+    assert np.abs(res.distance - full.distance).max() < TIGHT and np.abs(res.u - full.u).max() < 1e-9
+    assert not project_points_to_surface(s, P, u + 0.06, v - 0.05, max_iter=0).converged.any()
 
 
 def test_vee_fold_picks_the_closer_arm_and_the_crease():
@@ -522,6 +558,7 @@ def test_collapsed_apex_normal_and_sign_on_both_sides(apex, plane_normal):
     want_n = plane_normal * np.sign(P[at_c, 2])[:, None] * (P[at_c] - TRI_C) / d[at_c, None]
     assert np.abs(res.normal[at_c] - want_n).max() < 1e-9
     assert np.abs(res.normal[~at_c] - [0, 0, plane_normal]).max() < 1e-12
+    assert res.converged.all()
 
 
 def test_periodic_thin_blade_against_brute_force():
@@ -600,7 +637,13 @@ def test_coarse_grid_vee_extra_starts_pick_the_closer_arm(monkeypatch):
     monkeypatch.setattr(proj_restarts, "_MAX_STARTS", 0)
     proj_cache._cache.clear()
     bare = project_points_to_surface(s, P)
-    assert (bare.distance > d + 1e-4).sum() >= 5
+    wrong = np.flatnonzero(bare.distance > d + 1e-4)
+    assert wrong.size >= 5
+    monkeypatch.undo()                                  # the extra starts back, for one point alone
+    _coarse_grid(monkeypatch)
+    proj_cache._cache.clear()
+    alone = project_points_to_surface(s, P[wrong[:1]])
+    assert abs(alone.distance[0] - d[wrong[0]]) < TIGHT
 
 
 def test_coarse_grid_curve_starts_round_the_nose(monkeypatch):
@@ -694,6 +737,26 @@ def test_first_least_per_point():
     assert proj_restarts._first_least(np.full(2, np.inf), np.array([0, 0]), np.array([0])).size == 0
 
 
+def test_coarse_grid_surface_starts_round_the_nose(monkeypatch):
+    """The surface form of the test above: near the thin blade's noses, on a start grid with
+    one sample per 360 degrees of turning, the starts moved round the edge change at least 5
+    feet, each to the brute-force referee's distance, and never to a farther one. Catches
+    the turned feet not handed back to the caller (the result keeps the first foot) and the
+    turn restarts skipped."""
+    _coarse_grid(monkeypatch)
+    monkeypatch.setattr(proj_grid, "_MAX_TURN_PER_SAMPLE", np.radians(360.0))
+    s, P = _near_edge_points()
+    res = project_points_to_surface(s, P)
+    monkeypatch.setattr(proj_search, "_TURN", np.inf)
+    proj_cache._cache.clear()
+    bare = project_points_to_surface(s, P)
+    better = np.flatnonzero(bare.distance > res.distance + 1e-6)
+    assert better.size >= 5
+    assert np.all(bare.distance >= res.distance - TIGHT)
+    rd = _brute_force(s, P[better], 400, 40)[3]
+    assert np.abs(res.distance[better] - rd).max() < TIGHT
+
+
 # --------------------------------------------------------------------------- parallel
 def _projection_fields(res):
     return {k: getattr(res, k) for k in ("u", "v", "foot", "distance", "signed", "normal", "converged")}
@@ -728,8 +791,8 @@ def test_for_each_block_covers_every_row_once(monkeypatch):
     has its blocks run again here. Catches lost or doubled blocks and a child's failure
     leaving rows unset."""
     parent = os.getpid()
-    for threads, fork, shared, workers in ((1, True, True, -1), (3, True, True, 1), (2, False, True, 1),
-                                           (2, True, False, 1)):
+    for threads, fork, shared, workers, chunk in ((1, True, True, -1, 4), (3, True, True, 1, 4), (2, False, True, 1, 4),
+                                                  (2, True, False, 1, 4), (2, True, True, 1, 12), (4, True, True, -1, 23)):
         monkeypatch.setattr(proj_parallel, "_THREADS", threads)
         monkeypatch.setattr(proj_parallel, "_can_fork", lambda fork=fork: fork)
         hits = proj_parallel._shared((23,), np.int64)
@@ -738,7 +801,7 @@ def test_for_each_block_covers_every_row_once(monkeypatch):
         def work(a, b, w):
             hits[a:b] += 1
             seen[a:b] = w
-        proj_parallel._for_each_block(23, work, chunk=4, shared=shared)
+        proj_parallel._for_each_block(23, work, chunk=chunk, shared=shared)
         assert np.array_equal(hits, np.ones(23)), (threads, fork, shared)
         assert np.all(seen == workers)
     out = proj_parallel._shared((12,))
@@ -762,7 +825,7 @@ def test_can_fork_switch(monkeypatch):
     single-threaded test process on Linux). Catches a switch read the wrong way round."""
     monkeypatch.setenv("BLADERECON_PROCESSES", "0")
     assert not proj_parallel._can_fork()
-    monkeypatch.setenv("BLADERECON_PROCESSES", "1")
+    monkeypatch.delenv("BLADERECON_PROCESSES")
     assert proj_parallel._can_fork() is (os.sys.platform.startswith("linux") and
                                          not any(n in os.sys.modules for n in proj_parallel._GUI_MODULES))
 
@@ -829,6 +892,10 @@ def test_curve_projection_onto_a_parabola(dim):
         axis = project_points_to_curve(c, np.column_stack([np.zeros(3), h]))
         want = np.where(h > 1 / (2 * C_PAR), np.sqrt(h / C_PAR - 1 / (4 * C_PAR ** 2)), h)
         assert np.abs(axis.distance - want).max() < TIGHT
+        x0, h0 = np.meshgrid([-0.2, 0.01, 0.1], [4.7, 5.2, 6.0])
+        Q = np.column_stack([x0.ravel(), h0.ravel()])
+        _, _, rq = _curve_brute_force(c, Q)
+        assert np.abs(project_points_to_curve(c, Q).distance - rq).max() < TIGHT
 
 
 def test_curve_warm_starts_blocks_and_voxel_order(monkeypatch):
