@@ -348,6 +348,41 @@ def test_a_collinear_section_is_said_to_lie_on_a_line_not_to_cross(capfd, tmp_pa
     assert "section '1' (lines 67–131) has no area" in line and "lie on a line" in line and "cross" not in line, line
 
 
+def test_a_stop_swallowed_as_the_command_ends_does_not_land_after_it(tmp_path):
+    """A SIGTERM swallowed in a callback just as the command's work ends: the work is done (status
+    0), and the signal sent again must not land after ``main`` has returned (it killed the
+    caller with 143: a test process, FreeCAD's console); the hook and the warning filters are
+    the caller's again."""
+    import subprocess
+    import sys
+
+    root = Path(__file__).resolve().parent.parent
+    script = """
+import os, signal, sys, time, warnings, weakref
+from bladerecon.cli import main as m
+
+def fake_main(argv):
+    class Held: pass
+    def callback(_):
+        os.kill(os.getpid(), signal.SIGTERM)
+        for _ in range(100): pass
+    held = Held()
+    ref = weakref.ref(held, callback)
+    del held
+    return 0
+
+hook, filters = sys.unraisablehook, list(warnings.filters)
+m._main = fake_main
+code = m.main(["x"])
+time.sleep(0.2)
+print("code", code, sys.unraisablehook is hook, list(warnings.filters) == filters)
+"""
+    proc = subprocess.run([sys.executable, "-c", script], env=dict(os.environ, PYTHONPATH=str(root)),
+                          cwd=tmp_path, capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 0 and proc.stdout.strip() in ("code 0 True True", "code 143 True True"), \
+        (proc.returncode, proc.stdout, proc.stderr)
+
+
 def _python_itself_interrupted(err: str, sig) -> bool:
     """Ctrl-C in the first ~40 ms, while CPython imports its own modules (``site``, then runpy
     finding the package and writing its bytecode cache), before the first line of bladerecon

@@ -180,49 +180,29 @@ def _on_sigterm(signum, frame) -> None:
     raise Terminated()
 
 
-_RAISED_AGAIN_LIMIT = 1000
-
-
-def _stop_raised_again(previous_hook):
-    """A ``sys.unraisablehook`` for Ctrl-C and SIGTERM raised where Python swallows exceptions
-    (an import lock's weakref callback, a Cython module's set-up, a ``__del__``): there they were
-    printed as "Exception ignored" with a traceback and the command ran on to the end (status 0,
-    outputs written). The signal is sent again a moment later, to land in ordinary code;
-    warnings of the interrupted import are dropped, since the command is stopping."""
-    count = [0]
-
-    def hook(unraisable) -> None:
-        stop = {KeyboardInterrupt: signal.SIGINT, Terminated: signal.SIGTERM}.get(unraisable.exc_type)
-        if stop is None:
-            previous_hook(unraisable)
-            return
-        import warnings
-        warnings.simplefilter("ignore")
-        count[0] += 1
-        if count[0] > _RAISED_AGAIN_LIMIT or not callable(signal.getsignal(stop)):
-            code = 130 if stop == signal.SIGINT else 143
-            print(_STOP_LINES[code], file=sys.stderr, flush=True)
-            os._exit(code)
-        # sent from a moment later: raised here, inside the hook, it would be swallowed again
-        import threading
-        threading.Timer(0.002, os.kill, (os.getpid(), stop)).start()
-    return hook
-
-
 _STOP_LINES = {130: "bladerecon: interrupted; no output was completed",
                143: "bladerecon: terminated (SIGTERM); no output was completed"}
+
+
+def _stop_now(signum: int) -> None:
+    """A stop swallowed over and over (see :mod:`.stops`): the usual line, and leave."""
+    code = 130 if signum == signal.SIGINT else 143
+    print(_STOP_LINES[code], file=sys.stderr, flush=True)
+    os._exit(code)
 
 
 def main(argv: list[str] | None = None) -> int:
     as_program = argv is None
     previous = None
-    previous_hook = sys.unraisablehook
+    resend = None
     try:
         try:
             argv = list(sys.argv[1:] if argv is None else argv)
             if _main_thread():
+                from bladerecon.cli.stops import resend_swallowed
                 previous = signal.signal(signal.SIGTERM, _on_sigterm)
-                sys.unraisablehook = _stop_raised_again(previous_hook)
+                resend = resend_swallowed({KeyboardInterrupt: signal.SIGINT, Terminated: signal.SIGTERM},
+                                          _stop_now).__enter__()
             code = _main(argv)
         # while the parser's modules load (numpy, scipy: a few tenths of a second), before any
         # work: one line and the usual status, not a traceback with status 1
@@ -233,9 +213,10 @@ def main(argv: list[str] | None = None) -> int:
             print(_STOP_LINES[143], file=sys.stderr)
             code = 143
     finally:
+        if resend is not None:        # timers not yet fired cancelled: nothing lands after the return
+            resend.__exit__(None, None, None)
         if previous is not None:
             signal.signal(signal.SIGTERM, previous)
-            sys.unraisablehook = previous_hook
     if as_program and code in (130, 143):
         # Interrupted, temporaries already removed: leave now. FreeCAD interrupted while it reads
         # a STEP can crash in the interpreter's clean-up and turn 130 into 1.

@@ -54,7 +54,8 @@ def add_parser(sub) -> None:
     r.add_argument("--method", choices=("auto", "interpolate", "approximate"), default="auto",
                    help="auto (default): interpolate or smooth, chosen from point spacing against noise")
     r.add_argument("--tolerance", type=float, metavar="MM",
-                   help="with --method approximate: largest allowed distance of a measured point (mm)")
+                   help="with --method approximate: largest allowed distance of a measured point (mm); "
+                        "a whole-blade cloud: it sets the sections' fit, and is judged on the cloud's nodes")
     r.add_argument("--pairing", choices=("anchored", "angle"), default="anchored",
                    help="corresponding points between sections: LE/TE-anchored common parameter "
                         "(default) or the angle pairing of seed 000 Fig. 5 (interpolates the paired points)")

@@ -187,16 +187,6 @@ def _end_planes(poles: np.ndarray) -> list:
     return out
 
 
-def _outward(foot: np.ndarray, normal: np.ndarray, v: np.ndarray, lo: float, hi: float, bins: int = 20) -> float:
-    """+1 when the surface's normals point out of the blade, else -1: the sign of the sum over the
-    feet of normal . (foot - the mean foot of its span band)."""
-    band = np.clip(((v - lo) / max(hi - lo, 1e-300) * bins).astype(int), 0, bins - 1)
-    count = np.bincount(band, minlength=bins).astype(float)
-    middle = np.stack([np.bincount(band, foot[:, k], minlength=bins) for k in range(3)], axis=1)
-    middle /= np.maximum(count, 1.0)[:, None]
-    return 1.0 if float(np.einsum("ij,ij->", normal, foot - middle[band])) >= 0.0 else -1.0
-
-
 def fit_to_cloud(rec, cs: CloudSections, rounds: int = CLOUD_FIT_ROUNDS, offset: float = 0.0):
     """The surface skinned through the sections of ``cs``, fitted by least squares to every
     cloud node between the end sections: ``(reconstruction with the fitted surface, info,
@@ -214,11 +204,13 @@ def fit_to_cloud(rec, cs: CloudSections, rounds: int = CLOUD_FIT_ROUNDS, offset:
     cloud (``cs.cloud`` None) or with fewer nodes than poles, ``rec`` is returned as it is (and
     ``distances`` None).
 
-    ``offset`` (mm, probe radius + coating; the sections of ``rec`` already moved by it): every
-    node is first moved that far toward the material along the sections' surface normal at its
-    foot, so that the cloud and the sections describe the same surface; the distances are the
-    moved nodes'. The material side: the surface's normals point away from the middle of the
-    section they belong to, taken over all nodes (one orientation for the whole surface).
+    ``offset`` (mm, probe radius + coating; the sections of ``rec`` already moved by it in their
+    planes): every node is first moved that far toward the material along the surface normal at
+    its foot (the physical offset, in 3D; the section points' in-plane move equals it where the
+    normal lies in the section plane, and is shorter by cos θ on a leaning blade: the fit to the
+    nodes carries the 3D one). The material side: the nodes, not yet moved, lie about ``offset``
+    outside the sections' surface, so the side of most of them (the median signed distance) is
+    outward. The distances returned are the moved nodes'.
     """
     import dataclasses
 
@@ -240,7 +232,10 @@ def fit_to_cloud(rec, cs: CloudSections, rounds: int = CLOUD_FIT_ROUNDS, offset:
     lo, hi = S0.v_domain
     span = hi - lo
     if offset:
-        X = X - offset * _outward(pr.foot, pr.normal, pr.v, lo, hi) * pr.normal
+        # the nodes lie ~offset outside the sections' (compensated) surface: the side of most of
+        # them is outward, whatever the surface's own normal orientation or the sampling
+        outward = 1.0 if float(np.median(pr.signed)) >= 0.0 else -1.0
+        X = X - offset * outward * pr.normal
         pr = project_points_to_surface(S0, X, pr.u, pr.v)
     inside = (pr.v > lo + 1e-9 * span) & (pr.v < hi - 1e-9 * span)
     rms0 = float(np.sqrt(np.mean(pr.distance[inside] ** 2))) if inside.any() else 0.0

@@ -155,13 +155,14 @@ def _hull_area(q: np.ndarray) -> float:
 
 
 def _trend_ends(z: np.ndarray, area: np.ndarray, lo: float, hi: float, local: bool = False) -> tuple[int, int, float]:
-    """First and last probe (indices) still on the quadratic trend of log(area) of the middle half,
-    and the limit (log area) that was used.
+    """First and last probe (indices) still on the trend of log(area), and the limit (log area)
+    that was used. The trend: the quadratic of the middle half, extended both ways.
 
-    ``local``: a probe is off the trend when it leaves the straight continuation of the last two
-    probes' departures from it, not the quadratic itself. For node rows, each a whole section
-    of the blade: a smooth airfoil whose area bends away from the middle half's quadratic near
-    its ends (a fan's tip row 4 % off it) is kept; a fillet or cap still jumps off in one row."""
+    ``local`` (node rows, each a whole section of the blade): a probe is off the trend when the
+    departure from that quadratic bends there, the second difference over a twentieth of the
+    span (whatever the row spacing) beyond its noise (√6 x the scatter's limit): a smooth
+    airfoil whose area bends away from the quadratic near its ends (a fan's tip row 4 % off it)
+    is kept, a fillet or cap, which grows or shrinks the area within a few mm, is still left."""
     n_probe = len(z)
     mid = slice(n_probe // 4, 3 * n_probe // 4)
     good = area > 0
@@ -176,20 +177,30 @@ def _trend_ends(z: np.ndarray, area: np.ndarray, lo: float, hi: float, local: bo
     rel[good] = np.log(area[good]) - np.polyval(coef, x[good])
     scatter = 1.4826 * float(np.median(np.abs(rel[ok] - np.median(rel[ok]))))
     limit = max(4.0 * scatter, np.log(1.03))
+    reach = (hi - lo) / 20.0
+    bend_limit = max(4.0 * scatter * np.sqrt(6.0), np.log(1.03))
+
+    def off(known: np.ndarray, j: int, step: int) -> bool:
+        if not local:
+            return abs(rel[j]) > limit
+        # the second difference over a twentieth of the span, back towards the middle: a smooth
+        # airfoil bends its log(area) by ~0.005 over it, a fillet's growth by 0.3 and more
+        zs = z[known]
+        order = np.argsort(zs)
+        back = np.interp(z[j] - step * np.array([reach, 2.0 * reach]) * np.sign(z[-1] - z[0]),
+                         zs[order], rel[known][order])
+        return abs(rel[j] - 2.0 * back[0] + back[1]) > bend_limit
 
     def walk(start: int, step: int) -> int:
         k = start
+        known = list(np.flatnonzero(ok))          # the middle half, and what the walk accepts
         while 0 <= k + step < n_probe:
             nxt, nxt2 = k + step, k + 2 * step
-            if local:
-                drift = rel[k] - rel[k - step] if np.isfinite(rel[k - step]) else 0.0
-                pred = rel[k] + drift
-                bad = abs(rel[nxt] - pred) > limit and (not 0 <= nxt2 < n_probe or abs(rel[nxt2] - pred - drift) > limit)
-            else:
-                bad = abs(rel[nxt]) > limit and (not 0 <= nxt2 < n_probe or abs(rel[nxt2]) > limit)
-            if bad:
+            if off(np.array(known), nxt, step) and (not 0 <= nxt2 < n_probe or off(np.array(known), nxt2, step)):
                 return k
             k = nxt
+            if np.isfinite(rel[k]):        # a probe without an area is stepped over, not a base
+                known.append(k)
         return k
 
     return walk(n_probe // 2, -1), walk(n_probe // 2, +1), float(limit)
