@@ -597,8 +597,11 @@ def test_bad_input():
         project_points_to_surface(s, np.array([[0.0, 0.0, 0.0], [np.nan, 1.0, 1.0]]))
     with pytest.raises(BladeReconError, match="row 2"):          # inf, and a sum that overflows
         project_points_to_surface(s, np.array([[1e308, 0.0, 0.0], [1e308, 0.0, 0.0], [0.0, -np.inf, 0.0]]))
-    big = np.array([[1e308, 0.0, 0.0], [1e308, 0.0, 0.0]])           # finite, though their sum is not
-    assert proj_points._check_points(big, 3) is not None
+    big = np.array([[1e308, 0.0, 0.0], [1e308, 0.0, 0.0]])           # finite, but their squares overflow
+    with pytest.raises(BladeReconError, match=r"2 point\(s\) have coordinates beyond 1e\+100 mm \(first at row 0\)"):
+        proj_points._check_points(big, 3)
+    many = np.full((4000, 3), 1e98)                 # each within the limit, their squares' sum beyond
+    assert proj_points._check_points(many, 3) is many or np.array_equal(proj_points._check_points(many, 3), many)
     with pytest.raises(BladeReconError, match=r"\(m, 3\)"):
         project_points_to_surface(s, np.zeros((4, 2)))
     with pytest.raises(ValueError):

@@ -976,8 +976,8 @@ def test_bad_input_is_refused_and_edge_cases():
         project_points_to_surface(s, np.array([[0.0, 0.0, 0.0], [np.nan, 1.0, 1.0]]))
     with pytest.raises(BladeReconError, match=r"1 point\(s\).*row 2"):
         project_points_to_surface(s, np.array([[1e308, 0.0, 0.0], [1e308, 0.0, 0.0], [0.0, -np.inf, 0.0]]))
-    big = np.array([[1e308, 0.0, 0.0], [1e308, 0.0, 0.0]])      # finite, though their sum is not
-    assert proj_points._check_points(big, 3) is not None
+    big = np.array([[1e97, 0.0, 0.0], [1e97, 0.0, 0.0]] * 200)     # each within the limit, their sum far
+    assert np.array_equal(proj_points._check_points(big, 3), big)
     with pytest.raises(BladeReconError, match=r"\(m, 3\)"):
         project_points_to_surface(s, np.zeros((4, 2)))
     with pytest.raises(BladeReconError):
@@ -996,3 +996,17 @@ def test_bad_input_is_refused_and_edge_cases():
     with pytest.raises(BladeReconError, match=r"\(m, 2\)"):
         project_points_to_curve(c, np.zeros((3, 3)))
     assert project_points_to_curve(c, np.zeros((0, 2))).t.shape == (0,)
+
+
+@pytest.mark.parametrize("far", [1e154, 1e200, -1e300])
+def test_coordinates_so_large_their_squares_overflow_are_refused_in_one_line(far):
+    """Finite points at 1e154 mm and beyond crashed the projection with an IndexError from the
+    start grid (squared distances overflowed and the k-d tree returned its "no neighbour"
+    index); they are refused by the input check, naming the row, and ordinary large ones
+    (1e6 mm) still project."""
+    surf = tilted_plane()
+    P = np.array([[0.2, 0.3, 0.1], [far, 0.0, 0.0], [0.4, 0.4, -0.2]])
+    with pytest.raises(BladeReconError, match=r"1 point\(s\) have coordinates beyond 1e\+100 mm \(first at row 1\)"):
+        project_points_to_surface(surf, P)
+    r = project_points_to_surface(surf, np.array([[0.2, 0.3, 0.1], [1e6, 0.0, 0.0]]))
+    assert np.all(np.isfinite(r.distance))

@@ -18,8 +18,12 @@ def _check_points(points: np.ndarray, dim: int) -> np.ndarray:
         P = P[None, :]
     if P.ndim != 2 or P.shape[1] != dim:
         raise BladeReconError(f"points must be an (m, {dim}) array of coordinates in mm; got shape {P.shape}")
+    flat = P.ravel()
     with np.errstate(over="ignore", invalid="ignore"):
-        if np.isfinite(np.sum(P)):    # one cheap pass; a sum may overflow, so check again then
+        # one cheap pass: finite and small only when no coordinate is NaN or infinite and none
+        # near where squared distances overflow (from ~1e154 mm the k-d tree found no neighbour)
+        square = np.dot(flat, flat)
+        if np.isfinite(square) and square <= _LARGEST * _LARGEST:
             return P
     bad = ~np.isfinite(P).all(axis=1)
     if bad.any():
@@ -28,7 +32,17 @@ def _check_points(points: np.ndarray, dim: int) -> np.ndarray:
             f"{rows.size} point(s) have NaN or infinite coordinates (first at row {rows[0]}): "
             "remove them before measuring distances"
         )
+    rows = np.flatnonzero((np.abs(P) > _LARGEST).any(axis=1))
+    if rows.size:
+        raise BladeReconError(
+            f"{rows.size} point(s) have coordinates beyond {_LARGEST:g} mm (first at row {rows[0]}): "
+            "check the file's units and remove them before measuring distances"
+        )
     return P
+
+
+#: mm: farther coordinates are refused (their squared distances overflow with enough of them)
+_LARGEST = 1e100
 
 
 def _start_parameters(values: np.ndarray | None, m: int, name: str) -> np.ndarray | None:
