@@ -7,7 +7,7 @@ faulthandler a little later: it prints every thread's stack under a line naming 
 ends the run (the dump holds the test's own frame), so the suite never waits forever.
 
 The limit is ``BLADERECON_TEST_TIMEOUT`` seconds (default 300); a test may ask for more with
-``@pytest.mark.timeout(SECONDS)``.
+``@pytest.mark.timeout(SECONDS)``; ``BLADERECON_TEST_TIMEOUT_CAP`` caps both (mutation runs).
 """
 from __future__ import annotations
 
@@ -18,6 +18,9 @@ import signal
 import pytest
 
 DEFAULT_LIMIT = float(os.environ.get("BLADERECON_TEST_TIMEOUT", "300"))
+#: a cap on every limit, the marks' too (``make mutation``: a mutant that loops forever fails its
+#: test in a minute instead of waiting for mutmut's timer, several minutes a mutant)
+CAP = float(os.environ.get("BLADERECON_TEST_TIMEOUT_CAP", "inf"))
 _GRACE = 60.0  # s after the limit before faulthandler ends the process
 
 
@@ -36,7 +39,7 @@ def pytest_runtest_protocol(item, nextitem):
         yield
         return
     marker = item.get_closest_marker("timeout")
-    limit = float(marker.args[0]) if marker and marker.args else DEFAULT_LIMIT
+    limit = min(float(marker.args[0]) if marker and marker.args else DEFAULT_LIMIT, CAP)
 
     def expired(signum, frame):
         raise TimeLimitExceeded(f"{item.nodeid} did not finish in {limit:g} s (time limit; a hang?)")

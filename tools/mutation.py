@@ -196,7 +196,11 @@ def _write_table(head: str) -> Path:
 
 def _run_tests(args: list[str]) -> int:
     """The mutmut runner: pytest on ``args``; 0 if every test passed, else 1 (and the odd code logged)."""
+    # a mutant that makes a test loop forever fails it in a minute (the suite's own time limit,
+    # capped), not after mutmut's timer: the loop mutants of fairing's run detection took 3-4
+    # minutes each that way; the tests run per mutant are the fast ones (slow ones deselected)
     env = dict(os.environ, PYTHONDONTWRITEBYTECODE="1")
+    env.setdefault("BLADERECON_TEST_TIMEOUT_CAP", "60")
     log = Path.cwd() / ".mutation-odd-exits"
     with open(log, "a") as f:                 # "start" without its end: mutmut's timer killed this run
         f.write("start\n")
