@@ -301,6 +301,13 @@ def test_whole_cloud_options_through_the_command(tmp_path):
     assert sl["kind"] == "stream-surfaces" and sl["kind_reason"] == "radial requested" and sl["axis"] == [0.0, 0.0, 1.0]
 
 
+def _smooth_area(rows: np.ndarray) -> np.ndarray:
+    """A blade's section area along 60-180 mm whose log bends off a quadratic (the cubic term:
+    ~4 % at the ends), as the fan's does."""
+    x = (rows - 120.0) / 120.0
+    return np.exp(5.5 + 0.9 * x - 0.5 * x * x + 0.35 * x ** 3)
+
+
 def test_smooth_rows_are_kept_and_a_fillet_still_trimmed():
     """The airfoil span of node rows: a fan's tip row lies 4 % off the quadratic trend of the
     middle half's log(area) (its area bends away smoothly) and was trimmed with the row before it
@@ -310,8 +317,7 @@ def test_smooth_rows_are_kept_and_a_fillet_still_trimmed():
     from bladerecon.core.sections.cloud import _trend_ends
 
     rows = np.linspace(60.0, 180.0, 41)
-    x = (rows - 120.0) / 120.0
-    smooth = np.exp(5.5 + 0.9 * x - 0.5 * x * x + 0.35 * x ** 3)      # the cubic: ~4 % off a quadratic
+    smooth = _smooth_area(rows)
     k_lo, k_hi, _ = _trend_ends(rows, smooth, 60.0, 180.0)
     assert (k_lo, k_hi) != (0, 40)                                    # the old rule trims a smooth end
     assert _trend_ends(rows, smooth, 60.0, 180.0, local=True)[:2] == (0, 40)
@@ -326,8 +332,7 @@ def test_smooth_rows_are_kept_and_a_fillet_still_trimmed():
     # shrinking it over 5 mm likewise; judged over a twentieth of the span, not one row
     for n in (41, 161, 321):
         rows = np.linspace(60.0, 180.0, n)
-        x = (rows - 120.0) / 120.0
-        smooth = np.exp(5.5 + 0.9 * x - 0.5 * x * x + 0.35 * x ** 3)
+        smooth = _smooth_area(rows)
         s_in = np.clip(68.0 - rows, 0.0, None)
         fillet = smooth * (1.0 + 0.6 * (s_in / 8.0) ** 2)
         s_cap = np.clip(rows - 175.0, 0.0, None)
@@ -340,8 +345,7 @@ def test_smooth_rows_are_kept_and_a_fillet_still_trimmed():
     # area noise of 0.6 % (a coarse hull): the whole span kept on at least 95 % of 200 seeds
     rng = np.random.default_rng(0)
     rows = np.linspace(60.0, 180.0, 41)
-    x = (rows - 120.0) / 120.0
-    smooth = np.exp(5.5 + 0.9 * x - 0.5 * x * x + 0.35 * x ** 3)
+    smooth = _smooth_area(rows)
     kept = sum(_trend_ends(rows, smooth * np.exp(0.006 * rng.standard_normal(41)), 60.0, 180.0, local=True)[:2]
                == (0, 40) for _ in range(200))
     assert kept >= 190, kept

@@ -348,37 +348,49 @@ def test_a_collinear_section_is_said_to_lie_on_a_line_not_to_cross(capfd, tmp_pa
     assert "section '1' (lines 67–131) has no area" in line and "lie on a line" in line and "cross" not in line, line
 
 
-def test_a_stop_swallowed_as_the_command_ends_does_not_land_after_it(tmp_path):
-    """A SIGTERM swallowed in a callback just as the command's work ends: the work is done (status
-    0), and the signal sent again must not land after ``main`` has returned (it killed the
-    caller with 143: a test process, FreeCAD's console); the hook and the warning filters are
-    the caller's again."""
-    import subprocess
-    import sys
-
-    root = Path(__file__).resolve().parent.parent
-    script = """
+_SWALLOWING_MAIN = """
 import os, signal, sys, time, warnings, weakref
 from bladerecon.cli import main as m
 
 def fake_main(argv):
     class Held: pass
     def callback(_):
-        os.kill(os.getpid(), signal.SIGTERM)
+        os.kill(os.getpid(), signal.SIGTERM)     # the handler raises inside this callback
         for _ in range(100): pass
     held = Held()
     ref = weakref.ref(held, callback)
     del held
+{work}
     return 0
 
-hook, filters = sys.unraisablehook, list(warnings.filters)
 m._main = fake_main
+"""
+
+
+def _run_swallowing_main(tmp_path, work: str, after: str) -> "subprocess.CompletedProcess":
+    """``main(["x"])`` in a fresh process whose command work starts by having a SIGTERM raised
+    (and swallowed) inside a weakref callback; ``work`` (indented) is the rest of that work,
+    ``after`` runs once ``main`` has returned."""
+    import subprocess
+    import sys
+
+    root = Path(__file__).resolve().parent.parent
+    script = _SWALLOWING_MAIN.format(work=work) + after
+    return subprocess.run([sys.executable, "-c", script], env=dict(os.environ, PYTHONPATH=str(root)),
+                          cwd=tmp_path, capture_output=True, text=True, timeout=60)
+
+
+def test_a_stop_swallowed_as_the_command_ends_does_not_land_after_it(tmp_path):
+    """A SIGTERM swallowed in a callback just as the command's work ends: the work is done (status
+    0), and the signal sent again must not land after ``main`` has returned (it killed the
+    caller with 143: a test process, FreeCAD's console); the hook and the warning filters are
+    the caller's again."""
+    proc = _run_swallowing_main(tmp_path, "", """
+hook, filters = sys.unraisablehook, list(warnings.filters)
 code = m.main(["x"])
 time.sleep(0.2)
 print("code", code, sys.unraisablehook is hook, list(warnings.filters) == filters)
-"""
-    proc = subprocess.run([sys.executable, "-c", script], env=dict(os.environ, PYTHONPATH=str(root)),
-                          cwd=tmp_path, capture_output=True, text=True, timeout=60)
+""")
     assert proc.returncode == 0 and proc.stdout.strip() in ("code 0 True True", "code 143 True True"), \
         (proc.returncode, proc.stdout, proc.stderr)
 
@@ -404,35 +416,15 @@ def test_a_signal_swallowed_by_an_import_callback_still_stops_the_command(tmp_pa
     module's set-up) was printed as "Exception ignored" with a traceback, and the command ran on
     to the end with status 0 (FreeCAD 1.0 under load, 2026-11-27). It must stop the command a
     moment later with the usual line and 143, and the work after it must not finish."""
-    import subprocess
-    import sys
-
-    root = Path(__file__).resolve().parent.parent
     marker = tmp_path / "ran_on.txt"
-    script = f"""
-import os, signal, sys, time, weakref
-from bladerecon.cli import main as m
-
-def fake_main(argv):
-    class Held: pass
-    def callback(_):
-        os.kill(os.getpid(), signal.SIGTERM)     # the handler raises inside this callback
-        for _ in range(100): pass
-    held = Held()
-    ref = weakref.ref(held, callback)
-    del held
+    proc = _run_swallowing_main(tmp_path, f"""
     start = time.monotonic()
     while time.monotonic() - start < 5.0:      # the command's work: stopped a moment later
         pass
-    open({str(marker)!r}, "w").write("ran on")
-    return 0
-
-m._main = fake_main
+    open({str(marker)!r}, "w").write("ran on")""", """
 code = m.main(["x"])
 print("code", code)
-"""
-    proc = subprocess.run([sys.executable, "-c", script], env=dict(os.environ, PYTHONPATH=str(root)),
-                          cwd=tmp_path, capture_output=True, text=True, timeout=60)
+""")
     assert proc.stdout.strip() == "code 143", (proc.stdout, proc.stderr)
     assert proc.stderr.strip() == "bladerecon: terminated (SIGTERM); no output was completed", proc.stderr
     assert not marker.exists()

@@ -619,6 +619,15 @@ def _coarse_grid(monkeypatch):
     monkeypatch.setattr(proj_grid, "_MAX_TURN_PER_SAMPLE", np.radians(120.0))
 
 
+def _with_and_without_turn(monkeypatch, project, shape, P):
+    """``project(shape, P)`` as it is, then again with the restarts round an edge switched off
+    (``_TURN`` infinite, the cache cleared): (with, without)."""
+    res = project(shape, P)
+    monkeypatch.setattr(proj_search, "_TURN", np.inf)
+    proj_cache._cache.clear()
+    return res, project(shape, P)
+
+
 def test_coarse_grid_vee_extra_starts_pick_the_closer_arm(monkeypatch):
     """On a coarse start grid, points inside the V (the arms' distances differ by 1e-3 to
     3 mm) start Newton on the wrong arm; the extra starts from other samples in reach must
@@ -660,10 +669,7 @@ def test_coarse_grid_curve_starts_round_the_nose(monkeypatch):
     c = BSplineCurve(s.poles[:, 0, :2], s.u_knots, s.u_mults, 3, True)
     rng = np.random.default_rng(3)
     P = np.column_stack([rng.normal(9.9, 0.3, 400), rng.normal(0, 0.3, 400)])
-    res = project_points_to_curve(c, P)
-    monkeypatch.setattr(proj_search, "_TURN", np.inf)
-    proj_cache._cache.clear()
-    bare = project_points_to_curve(c, P)
+    res, bare = _with_and_without_turn(monkeypatch, project_points_to_curve, c, P)
     worse = np.flatnonzero(bare.distance > res.distance + 1e-6)
     assert worse.size >= 3
     _, _, rd = _curve_brute_force(c, P[worse])
@@ -746,10 +752,7 @@ def test_coarse_grid_surface_starts_round_the_nose(monkeypatch):
     _coarse_grid(monkeypatch)
     monkeypatch.setattr(proj_grid, "_MAX_TURN_PER_SAMPLE", np.radians(360.0))
     s, P = _near_edge_points()
-    res = project_points_to_surface(s, P)
-    monkeypatch.setattr(proj_search, "_TURN", np.inf)
-    proj_cache._cache.clear()
-    bare = project_points_to_surface(s, P)
+    res, bare = _with_and_without_turn(monkeypatch, project_points_to_surface, s, P)
     better = np.flatnonzero(bare.distance > res.distance + 1e-6)
     assert better.size >= 5
     assert np.all(bare.distance >= res.distance - TIGHT)

@@ -196,7 +196,8 @@ def _trend_ends(z: np.ndarray, area: np.ndarray, lo: float, hi: float, local: bo
         known = list(np.flatnonzero(ok))          # the middle half, and what the walk accepts
         while 0 <= k + step < n_probe:
             nxt, nxt2 = k + step, k + 2 * step
-            if off(np.array(known), nxt, step) and (not 0 <= nxt2 < n_probe or off(np.array(known), nxt2, step)):
+            base = np.array(known)
+            if off(base, nxt, step) and (not 0 <= nxt2 < n_probe or off(base, nxt2, step)):
                 return k
             k = nxt
             if np.isfinite(rel[k]):        # a probe without an area is stepped over, not a base
