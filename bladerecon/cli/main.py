@@ -212,6 +212,9 @@ def main(argv: list[str] | None = None) -> int:
         except Terminated:
             print(_STOP_LINES[143], file=sys.stderr)
             code = 143
+        except BrokenPipeError:     # met while a line about another failure was printed
+            _silence_stdio()
+            code = _BROKEN_PIPE
     finally:
         if resend is not None:        # timers not yet fired cancelled: nothing lands after the return
             resend.__exit__(None, None, None)
@@ -224,6 +227,21 @@ def main(argv: list[str] | None = None) -> int:
         sys.stderr.flush()
         os._exit(code)
     return code
+
+
+_BROKEN_PIPE = 128 + 13     # the shell's status for a process ended by SIGPIPE
+
+
+def _silence_stdio() -> None:
+    """stdout and stderr onto /dev/null: a closed pipe takes no more lines, and the interpreter's
+    last flush would print 'Exception ignored ... BrokenPipeError' where it still could."""
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            os.dup2(devnull, stream.fileno())
+        except (OSError, ValueError, AttributeError):    # not a file (a test's capture): nothing to do
+            pass
+    os.close(devnull)
 
 
 def _main_thread() -> bool:
@@ -264,6 +282,11 @@ def _main(argv: list[str]) -> int:
     except Terminated:
         print(_STOP_LINES[143], file=sys.stderr)
         return 143
+    except BrokenPipeError:
+        # the reader of stdout or stderr went away (``... --json | head``): as any Unix tool, end
+        # quietly with SIGPIPE's status; outputs not yet committed were removed on the way out
+        _silence_stdio()
+        return _BROKEN_PIPE
     except Exception as err:  # an internal error: one line unless debugging
         if os.environ.get("BLADERECON_DEBUG"):
             raise

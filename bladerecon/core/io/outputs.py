@@ -564,7 +564,8 @@ class Outputs:
 
     def __exit__(self, etype, err, tb) -> bool:
         try:
-            if isinstance(err, OSError):
+            # a broken pipe with no file named is stdout's or stderr's (the reader went away), not an output's
+            if isinstance(err, OSError) and not (isinstance(err, BrokenPipeError) and err.filename is None):
                 raise self.error_for(err) from None
             if isinstance(err, BladeReconError) and self.staged:
                 text = str(err)
