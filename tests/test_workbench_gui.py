@@ -48,6 +48,7 @@ CONFIG = json.loads(__CONFIG__)
 OUT = CONFIG["out_dir"]
 result = {"errors": {}, "seconds": {}, "timings": {}, "modals": []}
 T0 = time.time()
+ANSWER_WAIT_S = 30.0     # how long a step waits for the dialogs it expects (Answers.wait)
 
 import FreeCAD, FreeCADGui
 from PySide import QtCore, QtGui
@@ -172,9 +173,13 @@ class Answers:
             self.timer.start(50)
     def _poll(self):
         d = modal_dialog()
-        if d is None or d is self.last or not d.isVisible():
+        if d is None or d is self.last or not d.isVisible() or self.done >= len(self.handlers):
             return
         k = self.done
+        kind = getattr(self.handlers[k], "kind", None)
+        if kind is not None and not isinstance(d, kind):
+            return      # not the dialog this answer is for (a box left from a step before): the watchdog
+                        # records and closes it
         self.last = d
         self.done += 1
         if self.done >= len(self.handlers):
@@ -187,6 +192,16 @@ class Answers:
         except Exception:
             result["errors"]["answer %s %d" % (self.name, k)] = traceback.format_exc()
             d.done(0)
+    def wait(self, seconds=ANSWER_WAIT_S):
+        """Pump events until every expected dialog has come and been answered, up to ``seconds``: a
+        box that comes after the click's events (a queued error under load) is answered here, by the
+        step that caused it, not taken by the next step as its own dialog (FreeCAD 1.0, CI-like
+        load, 2026-11-27: the error box of a failed Reconstruct was 'answered' as the next import's
+        file dialog, which then went unanswered)."""
+        end = time.time() + seconds
+        while self.done < len(self.handlers) and time.time() < end:
+            pump(0.05)
+
     def stop(self):
         self.timer.stop()
 
@@ -198,6 +213,7 @@ def choose(path):
         if edits:
             edits[0].setText(os.path.basename(path) if not os.path.isdir(path) else path)
         d.accept()
+    handler.kind = W.QFileDialog
     return handler
 
 
@@ -208,6 +224,7 @@ def press(which):
         if b is None:
             b = [x for x in d.findChildren(W.QPushButton) if x.isVisible()][0]
         b.click()
+    handler.kind = W.QMessageBox
     return handler
 
 
@@ -228,6 +245,7 @@ def run(name, answers=(), timing=None):
     t = time.time()
     FreeCADGui.runCommand(name)
     pump()
+    pending.wait()
     pending.stop()
     if timing:
         redraw()
@@ -240,6 +258,7 @@ def click_ok(timing=None, answers=()):
     t = time.time()
     task_button("OK").click()
     pump()
+    pending.wait()
     pending.stop()
     if timing:
         redraw()
