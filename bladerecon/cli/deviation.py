@@ -117,13 +117,18 @@ def _read_measured(path: str):
 
 def _read_measured_lines(path: str, memory_limit: float | None = None):
     """As :func:`_read_measured`, and each point's file line (or a scan's vertex number)."""
+    return _read_measured_set(path, memory_limit)[:4]
+
+
+def _read_measured_set(path: str, memory_limit: float | None = None):
+    """As :func:`_read_measured_lines`, and the file's unit normals (N, 3) or None."""
     from bladerecon.core.io.readers import read_points
 
     ps = read_points(path, require_sections=False, memory_limit=memory_limit)
     check_coordinates(ps.points, ps.line, path)
     if not ps.structured:
-        return np.asarray(ps.points, float), None, (), np.asarray(ps.line)
-    return np.asarray(ps.points, float), np.asarray(ps.section), ps.section_names, np.asarray(ps.line)
+        return np.asarray(ps.points, float), None, (), np.asarray(ps.line), ps.normals
+    return np.asarray(ps.points, float), np.asarray(ps.section), ps.section_names, np.asarray(ps.line), ps.normals
 
 
 def _run(args: argparse.Namespace, temps: dict) -> dict:
@@ -137,11 +142,11 @@ def _run(args: argparse.Namespace, temps: dict) -> dict:
         check_coordinates(points, None, args.measured)
         from bladerecon.core.io.memory import check_command
         check_command("deviation", len(points), getattr(args, "memory_limit", None), args.measured)
-        section, names, lines = None, (), None
+        section, names, lines, normals = None, (), None, None
     else:
         from bladerecon.core.io.readers import check_file
         check_file("deviation", args.measured, getattr(args, "memory_limit", None))   # before it is read
-        points, section, names, lines = _read_measured_lines(args.measured, getattr(args, "memory_limit", None))
+        points, section, names, lines, normals = _read_measured_set(args.measured, getattr(args, "memory_limit", None))
     _say(args, f"{len(points)} points; reading nominal {args.nominal}")
     nominal = load_nominal(args.nominal)
     from bladerecon.fc.deviation import blade_like_warning
@@ -158,12 +163,12 @@ def _run(args: argparse.Namespace, temps: dict) -> dict:
         if section is not None:       # measured sections: along each section curve's normal, in its plane
             points = _compensate_sections(args, points, section, names, lines)
             compensation["normals"] = "section curve"
-        else:                         # a cloud: along the nominal's normals (measure_deviation)
+        else:                         # a cloud: along its file's normals, else the nominal's (measure_deviation)
             offset = compensation["offset_mm"]
-            compensation["normals"] = "nominal"
+            compensation["normals"] = "nominal" if normals is None else "file"
         _say(args, f"moving the points {compensation['offset_mm']:g} mm toward the material along the "
                    f"{compensation['normals']} normals (probe radius + coating)")
-    points, section, crop = _crop(args, points, section, nominal)
+    points, section, crop, normals = _crop(args, points, section, nominal, normals)
     t_read = time.perf_counter()
     if args.align != "none":
         _say(args, f"best fit ({args.align})")
@@ -173,7 +178,7 @@ def _run(args: argparse.Namespace, temps: dict) -> dict:
         res = inspection.result
     else:
         res = measure_deviation(points, nominal, args.align, args.tolerance, source=args.measured,
-                                robust=args.robust, offset=offset)
+                                robust=args.robust, offset=offset, normals=normals if offset else None)
     s = res.stats
     _say(args, f"deviation max {s['max'] * 1000:.1f} µm, min {s['min'] * 1000:.1f} µm, "
                f"{s['within_tolerance_pct']:.1f} % within ±{args.tolerance} mm")
@@ -226,10 +231,10 @@ def _inspect(args, nominal):
                             say=lambda msg: _say(args, msg), flow=getattr(args, "flow", None))
 
 
-def _crop(args, points, section, nominal):
-    """Points left out by --span-range / --crop-to-nominal, counted (issue 25)."""
+def _crop(args, points, section, nominal, normals=None):
+    """Points (and their normals) left out by --span-range / --crop-to-nominal, counted (issue 25)."""
     if args.span_range is None and not args.crop_to_nominal:
-        return points, section, None
+        return points, section, None, normals
     from bladerecon.core.analysis.crop import crop_points
 
     rng = None
@@ -246,7 +251,7 @@ def _crop(args, points, section, nominal):
         box = ((b.XMin, b.YMin, b.ZMin), (b.XMax, b.YMax, b.ZMax))
     keep, info = crop_points(points, np.eye(3)["xyz".index(args.span_axis)], rng, box)
     _say(args, f"{info['points_in'] - info['points_kept']} points left out by the crop, {info['points_kept']} kept")
-    return points[keep], (None if section is None else section[keep]), info
+    return points[keep], (None if section is None else section[keep]), info, (None if normals is None else normals[keep])
 
 
 def _compensate_sections(args, points, section, names, lines) -> np.ndarray:

@@ -72,10 +72,12 @@ def machine_axis(text: str) -> np.ndarray:
 
 def add_compensation_options(p) -> None:
     """``--probe-radius`` and ``--coating`` (mm): the points are moved that far toward the material
-    (:mod:`bladerecon.core.surface.compensation`; ``deviation``: along the nominal's normals)."""
+    (:mod:`bladerecon.core.surface.compensation`; ``deviation`` on a cloud: along the file's own
+    normals when it gives them, else the nominal's)."""
     p.add_argument("--probe-radius", type=finite(0.0, 50.0, "mm"), default=0.0, metavar="MM",
                    help="the points are touch-probe ball centres of this radius: move each by it toward the "
-                        "material, along the normal of its section (default 0)")
+                        "material, along the normal of its section (a cloud in deviation: the file's normals, "
+                        "x y z i j k or nx,ny,nz columns, else the nominal's) (default 0)")
     p.add_argument("--coating", type=finite(0.0, 50.0, "mm"), default=0.0, metavar="MM",
                    help="the points lie on a coating this thick over the part: move each by it toward the "
                         "material (default 0)")

@@ -330,13 +330,16 @@ def check_units(points: np.ndarray, nominal: Nominal, source: str = "the points"
 # --------------------------------------------------------------------------- the run
 def measure_deviation(points: np.ndarray, nominal: Nominal, align: str = "none",
                       tolerance: float = 0.03, source: str = "the points", robust: bool = False,
-                      offset: float = 0.0) -> DeviationResult:
+                      offset: float = 0.0, normals: np.ndarray | None = None) -> DeviationResult:
     """Align (``none|rigid|translate|rotate-z``; ``robust``: Tukey-biweight fit), then
     measure; stats as in ``deviation --json``.
 
     ``offset`` (mm, probe radius + coating): the points are first moved that far toward the
     material along the nominal's outward normal at their feet (the nominal-vector compensation
-    of CMM software), then aligned and measured."""
+    of CMM software), then aligned and measured. ``normals`` (N, 3), the file's own unit normals
+    (a CMM's i j k, a scanner's): the move is along them instead, each turned toward the side of
+    the nominal's outward normal (a file may give them pointing in or out): the measured surface's
+    normal where the part is twisted or bent off the nominal."""
     t0 = time.perf_counter()
     P = np.asarray(points, float)
     check_units(P, nominal, source)
@@ -348,7 +351,11 @@ def measure_deviation(points: np.ndarray, nominal: Nominal, align: str = "none",
         if align != "none":
             M = best_fit(P, nominal.projector(), align, robust=robust).matrix
             Q, R = apply_transform(P, M), M[:3, :3]
-        P = P - offset * (nominal.measure(Q).normal @ R)
+        outward = nominal.measure(Q).normal @ R
+        if normals is not None:
+            given = np.asarray(normals, float)
+            outward = given * np.where(np.einsum("ij,ij->i", given, outward) < 0.0, -1.0, 1.0)[:, None]
+        P = P - offset * outward
     t1 = time.perf_counter()
     alignment = None
     if align != "none":

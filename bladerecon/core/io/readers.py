@@ -6,12 +6,15 @@ Three text formats and two scanner formats, recognised by content (never by file
 ``csv``
     A header row naming ``x``, ``y``, ``z`` (case-insensitive, any order, an optional
     unit suffix ``x [mm]`` / ``x_mm``; extra columns ignored) and optionally ``section``,
-    a label (int or text). Delimiter ``,`` or ``;`` (detected from the header; with ``;``
+    a label (int or text), and a unit normal per point (``nx, ny, nz``, ``i, j, k`` or
+    ``normal_x, ...``: all three or none; a row whose normal is not of unit length is refused,
+    naming its line). Delimiter ``,`` or ``;`` (detected from the header; with ``;``
     a decimal comma is accepted). Without a ``section`` column, blank lines separate
     the sections.
 ``xyz-blocks``
-    ``x y z`` per line (or ``id x y z``; the id is ignored), sections separated by blank
-    lines or ``#`` lines (one or more).
+    ``x y z`` per line (or ``id x y z``, the id ignored; or ``x y z i j k``, a CMM's or
+    scanner's point with its unit normal), sections separated by blank lines or ``#`` lines
+    (one or more).
 ``section-table``
     The layout of ``shared/data/nasa_rotor37/rotor37_sections_xyz_mm.txt``: ``#`` lines,
     a line ``NPTS NSECTIONS``, then exactly NPTS*NSECTIONS lines ``x y z``.
@@ -60,6 +63,9 @@ _BLOCK_BYTES = 4 << 20           # plain tables are scanned this much at a time
 _MAX_MARKED_LINES = 100_000      # more '#' lines than this in a block: the careful parser
 _MAX_LINE_BYTES = 1 << 20        # a point's line is a few numbers: a longer line is refused
 _UNIT_SUFFIX = re.compile(r"[\s_]*[\[(]?\s*mm\s*[\])]?$")
+_NORMAL = ("nx", "ny", "nz")
+_NORMAL_NAMES = {"i": "nx", "j": "ny", "k": "nz", "normal_x": "nx", "normal_y": "ny", "normal_z": "nz"}
+_UNIT_NORMAL_TOL = 0.01        # |n| - 1 allowed in a file's normals (CMM i j k printed with 3+ decimals)
 
 
 @dataclass(frozen=True, eq=False)
@@ -176,7 +182,7 @@ def _read_points(source: str, require_sections: bool, memory_limit: float | None
             "add a header naming the columns, e.g. 'section,x,y,z'")
     if n_numeric == len(tokens) == 2:
         return _read_section_table(source, lines, first)
-    if n_numeric < len(tokens) and len(tokens) not in (3, 4):
+    if n_numeric < len(tokens) and len(tokens) not in (3, 4, 6):
         raise BladeReconError(
             f"{source}, line {first + 1}: '{shown(head)}' is neither a header naming x, y, z nor "
             "a line of numbers: use a CSV with a header, or 'x y z' lines")
@@ -456,10 +462,12 @@ def _to_float(source: str, idx: list[int], cells: list[str], column: str,
 
 
 def _point_set(source: str, fmt: str, xyz: np.ndarray, section: np.ndarray,
-               idx: list[int], names: Sequence[str], structured: bool = True) -> PointSet:
+               idx: list[int], names: Sequence[str], structured: bool = True,
+               normals: np.ndarray | None = None) -> PointSet:
     return PointSet(points=np.ascontiguousarray(xyz, dtype=float), section=section.astype(int, copy=False),
                     line=np.asarray(idx, dtype=int) + 1, section_names=tuple(names),
-                    source=source, format=fmt, structured=structured)
+                    source=source, format=fmt, structured=structured,
+                    normals=None if normals is None else np.ascontiguousarray(normals, dtype=float))
 
 
 def _require_structure(source: str, idx: list[int], block: np.ndarray) -> None:
@@ -552,10 +560,11 @@ def _read_fast(source: str, require_sections: bool, headerless: bool = False) ->
         if sep != "," or data.size < 2:
             return None
         idx, skip, ncol = data[1:], first + 1, len(names)
-        pick = [col[c] for c in "xyz"] + ([col["section"]] if "section" in col else [])
-    elif n_numeric == len(tokens) in (3, 4) and "," not in head_text and ";" not in head_text:
+        pick = ([col[c] for c in "xyz"] + ([col["section"]] if "section" in col else [])
+                + [col[c] for c in _NORMAL if c in col])
+    elif n_numeric == len(tokens) in (3, 4, 6) and "," not in head_text and ";" not in head_text:
         sep, idx, skip, ncol = None, data, first, len(tokens)
-        pick = list(range(ncol - 3, ncol))
+        pick = list(range(6)) if ncol == 6 else list(range(ncol - 3, ncol))
     elif headerless and n_numeric == len(tokens) in (3, 4):
         sep = ";" if ";" in head_text else ","
         idx, skip, ncol = data, first, len(tokens)
@@ -578,19 +587,22 @@ def _read_fast(source: str, require_sections: bool, headerless: bool = False) ->
     fmt = "xyz-blocks" if sep is None or headerless else "csv"
     if headerless:
         return _point_set(source, fmt, xyz, np.zeros(idx.size, dtype=int), idx, ["1"], structured=False)
+    normals = None
+    if len(pick) >= 6:                                   # the last three picked: the file's normals
+        normals = _unit_normals(source, idx, table[:, len(pick) - 3:len(pick)], sep is not None and "loose" in col)
     if sep == "," and "section" in col:
         labels = table[:, 3]
         if not np.all(labels == np.floor(labels)) or np.abs(labels).max() >= 2 ** 53:
             return None                                  # text-like labels: kept as written
         section, names_found = _section_labels_of_numbers(labels)
-        return _point_set(source, fmt, xyz, section, idx, names_found)
+        return _point_set(source, fmt, xyz, section, idx, names_found, normals=normals)
     block = np.zeros(idx.size, dtype=int)                # a new block after every gap in the lines
     block[np.flatnonzero(np.diff(idx) > 1) + 1] = 1
     np.cumsum(block, out=block)
     if require_sections:
         _require_structure(source, idx, block)
     return _point_set(source, fmt, xyz, block, idx, [str(b + 1) for b in range(block[-1] + 1)],
-                      structured=bool(block[-1] > 0))
+                      structured=bool(block[-1] > 0), normals=normals)
 
 
 def _line_blocks(fh) -> Iterator[bytes | None]:
@@ -695,7 +707,8 @@ def _section_labels_of_numbers(labels: np.ndarray) -> tuple[np.ndarray, list[str
 # --- formats ---------------------------------------------------------------------------
 
 def _header(source: str, header: str, first: int) -> tuple[str | None, list[str], dict[str, int]]:
-    """A CSV header line -> (separator, column names, {x, y, z[, section]: column})."""
+    """A CSV header line -> (separator, column names, {x, y, z[, section][, nx, ny, nz]: column});
+    normal columns may also be named i, j, k or normal_x, normal_y, normal_z."""
     sep = ";" if header.count(";") > header.count(",") else ","
     if sep not in header:
         sep = None  # one header cell, or whitespace-separated: reported below if unusable
@@ -703,11 +716,26 @@ def _header(source: str, header: str, first: int) -> tuple[str | None, list[str]
     plain = [_UNIT_SUFFIX.sub("", n) for n in names]
     col: dict[str, int] = {}
     for k, n in enumerate(plain):
-        if n in ("x", "y", "z", "section"):
+        n = _NORMAL_NAMES.get(n, n)
+        if n in ("x", "y", "z", "section", "nx", "ny", "nz"):
             if n in col:
                 raise BladeReconError(f"{source}, line {first + 1}: column '{n}' appears twice "
                                       "in the header: keep one")
             col[n] = k
+    given = [c for c in _NORMAL if c in col]
+    if any(n in ("i", "j", "k") for n in plain):
+        # i, j, k may be a structured grid's indices, not a normal: taken as normals only when all
+        # three are there and every row is of unit length, else ignored as any extra column
+        if len(given) < 3:
+            for c in given:
+                del col[c]
+            given = []
+        else:
+            col["loose"] = 1
+    if given and len(given) < 3:
+        raise BladeReconError(f"{source}, line {first + 1}: the header names normal column(s) "
+                              f"{', '.join(map(repr, given))} but not {', '.join(repr(c) for c in _NORMAL if c not in col)}: "
+                              "give all three (nx, ny, nz or i, j, k) or none")
     missing = [c for c in "xyz" if c not in col]
     if missing:
         found = ", ".join(f"'{shown(n, 30)}'" for n in names[:12]) + (", …" if len(names) > 12 else "")
@@ -727,13 +755,40 @@ def _read_csv(source: str, lines: list[str], first: int, require_sections: bool 
     decimal_comma = sep == ";"
     xyz = np.column_stack([_to_float(source, idx, [r[col[c]] for r in rows], names[col[c]],
                                      decimal_comma) for c in "xyz"])
+    normals = None
+    if "nx" in col:
+        cells = [[r[col[c]] for r in rows] for c in _NORMAL]
+        try:
+            values = [_to_float(source, idx, v, names[col[c]], decimal_comma) for v, c in zip(cells, _NORMAL)]
+        except BladeReconError:
+            if "loose" not in col:
+                raise
+            values = None      # i, j, k with text in them: not a normal, an extra column
+        normals = None if values is None else _unit_normals(source, idx, np.column_stack(values), "loose" in col)
     if "section" in col:
         section, names_found = _section_labels(source, idx, [r[col["section"]] for r in rows])
-        return _point_set(source, "csv", xyz, section, idx, names_found)
+        return _point_set(source, "csv", xyz, section, idx, names_found, normals=normals)
     if require_sections:
         _require_structure(source, idx, block)
     return _point_set(source, "csv", xyz, block, idx, [str(b + 1) for b in range(block[-1] + 1)],
-                      structured=bool(block[-1] > 0))
+                      structured=bool(block[-1] > 0), normals=normals)
+
+
+def _unit_normals(source: str, idx, normals: np.ndarray, loose: bool = False) -> np.ndarray | None:
+    """A file's normals (N, 3), each checked to be of unit length (within _UNIT_NORMAL_TOL) and
+    made exactly so; a row that is not names its line (``loose``, columns named i, j, k: None,
+    they are taken for something else)."""
+    length = np.sqrt(np.einsum("ij,ij->i", normals, normals))
+    bad = np.flatnonzero(~(np.abs(length - 1.0) <= _UNIT_NORMAL_TOL))
+    if bad.size and loose:
+        return None
+    if bad.size:
+        k = int(bad[0])
+        raise BladeReconError(
+            f"{source}, line {int(idx[k]) + 1}: the normal ({', '.join(f'{v:.6g}' for v in normals[k])}) has length "
+            f"{length[k]:.4g}, not 1 ({bad.size} row(s) like it): give unit normals (nx ny nz or i j k) after "
+            "x y z, or the coordinates alone")
+    return normals / length[:, None]
 
 
 def _section_labels(source: str, idx: list[int], cells: list[str]) -> tuple[np.ndarray, list[str]]:
@@ -767,21 +822,25 @@ def _label(cell: str) -> str:
 
 def _read_xyz_blocks(source: str, lines: list[str], first: int, ncol: int,
                      require_sections: bool = True) -> PointSet:
-    if ncol not in (3, 4):
-        raise BladeReconError(f"{source}, line {first + 1}: expected 'x y z' (3 numbers) or "
-                              f"'id x y z' (4 numbers), found {ncol} values: use one of these "
-                              "layouts or a CSV with a header")
+    if ncol not in (3, 4, 6):
+        raise BladeReconError(f"{source}, line {first + 1}: expected 'x y z' (3 numbers), "
+                              f"'id x y z' (4 numbers) or 'x y z i j k' (6: a unit normal after the point), "
+                              f"found {ncol} values: use one of these layouts or a CSV with a header")
     idx, block = _blocks(lines, first)
     rows = _split_rows(source, lines, idx, None, ncol)
-    names = ["x", "y", "z"] if ncol == 3 else ["id", "x", "y", "z"]
+    names = {3: ["x", "y", "z"], 4: ["id", "x", "y", "z"], 6: ["x", "y", "z", "i", "j", "k"]}[ncol]
     if ncol == 4:  # ids are not used, but must be numbers for the layout to make sense
         _to_float(source, idx, [r[0] for r in rows], "id")
-    xyz = np.column_stack([_to_float(source, idx, [r[k] for r in rows], names[k])
-                           for k in range(ncol - 3, ncol)])
+    at = 0 if ncol == 6 else ncol - 3
+    xyz = np.column_stack([_to_float(source, idx, [r[k] for r in rows], names[k]) for k in range(at, at + 3)])
+    normals = None
+    if ncol == 6:
+        normals = _unit_normals(source, idx, np.column_stack([_to_float(source, idx, [r[k] for r in rows], names[k])
+                                                              for k in range(3, 6)]))
     if require_sections:
         _require_structure(source, idx, block)
     return _point_set(source, "xyz-blocks", xyz, block, idx, [str(b + 1) for b in range(block[-1] + 1)],
-                      structured=bool(block[-1] > 0))
+                      structured=bool(block[-1] > 0), normals=normals)
 
 
 def _read_section_table(source: str, lines: list[str], first: int) -> PointSet:
