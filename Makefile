@@ -2,7 +2,7 @@
 # BladeRecon: install what is missing, test, demo, benchmark.
 # FreeCAD's Python modules load only in the Python they were built for: Debian's /usr/bin/python3.
 PYTHON ?= /usr/bin/python3
-DEB_PACKAGES := freecad python3-numpy python3-scipy python3-matplotlib python3-serial python3-pytest python3-hypothesis python3-dask python3-distributed xvfb xauth
+DEB_PACKAGES := freecad python3-numpy python3-scipy python3-matplotlib python3-serial python3-pytest python3-pytest-xdist python3-hypothesis python3-dask python3-distributed xvfb xauth
 SUDO := $(shell [ "$$(id -u)" -eq 0 ] || echo sudo)
 export PYTHONPATH := $(CURDIR)$(if $(PYTHONPATH),:$(PYTHONPATH))
 export QTWEBENGINE_DISABLE_SANDBOX := 1
@@ -13,7 +13,7 @@ all: test
 
 help:
 	@echo "make deps   install the missing Debian packages ($(DEB_PACKAGES))"
-	@echo "make test   run the test suite with $(PYTHON)"
+	@echo "make test   run the test suite with $(PYTHON), one worker per core (PYTEST_WORKERS=N, 0: one process)"
 	@echo "make test-freecad1   the same suite on FreeCAD 1.0 in a Debian 13 root (.cache/debian13, root only)"
 	@echo "make demo   reconstruct the sample blade into demo_out/"
 	@echo "make bench  run the benchmarks (bench/run_all.py)"
@@ -34,9 +34,14 @@ deps:
 	  echo "deps: all Debian packages present" >&2; \
 	fi
 
-# pytest's exit 5 (no test collected) is not a failure of the tree.
+# pytest's exit 5 (no test collected) is not a failure of the tree. The files are spread over
+# one worker per core (pytest-xdist, a file's tests kept together: their module fixtures are built
+# once); PYTEST_WORKERS=N sets the count, 0 runs them in this one process.
+PYTEST_WORKERS ?= auto
 test: deps
-	@$(PYTHON) -m pytest -q -rs tests; rc=$$?; [ $$rc -eq 5 ] && rc=0; exit $$rc
+	@par=""; if [ "$(PYTEST_WORKERS)" != 0 ] && $(PYTHON) -c "import xdist" 2>/dev/null; then \
+	  par="-n $(PYTEST_WORKERS) --dist loadfile"; fi; \
+	$(PYTHON) -m pytest -q -rs $$par tests; rc=$$?; [ $$rc -eq 5 ] && rc=0; exit $$rc
 
 # The whole suite on FreeCAD 1.0 (Debian 13, Python 3.13, numpy 2) in a root made once with
 # debootstrap into .cache/debian13/; "skipped" (exit 0) where the machine cannot make one.

@@ -12,7 +12,7 @@
 set -uo pipefail
 top=$(cd "$(dirname "$0")/.." && pwd)
 root=${FREECAD1_ROOT:-$top/.cache/debian13}
-packages="freecad python3-numpy python3-scipy python3-matplotlib python3-serial python3-pytest python3-hypothesis python3-dask python3-distributed xvfb xauth make git"
+packages="freecad python3-numpy python3-scipy python3-matplotlib python3-serial python3-pytest python3-pytest-xdist python3-hypothesis python3-dask python3-distributed xvfb xauth make git"
 
 say() { echo "test-freecad1: $*" >&2; }
 skip() { echo "test-freecad1: skipped: $*"; exit 0; }
