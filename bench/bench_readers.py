@@ -86,12 +86,14 @@ def main(argv=None) -> None:
             files = {
                 "CSV x,y,z": tmp / f"c{m}.csv",
                 "XYZ x y z": tmp / f"c{m}.xyz",
+                "XYZ x y z i j k (normals)": tmp / f"n{m}.xyz",
                 "PLY binary, float, normals": tmp / f"c{m}.ply",
                 "PLY ASCII, normals": tmp / f"a{m}.ply",
                 "PCD binary, float, normals": tmp / f"c{m}.pcd",
             }
             np.savetxt(files["CSV x,y,z"], P, fmt="%.6f", delimiter=",", header="x,y,z", comments="")
             np.savetxt(files["XYZ x y z"], P, fmt="%.6f")
+            np.savetxt(files["XYZ x y z i j k (normals)"], np.column_stack([P, N]), fmt="%.6f")
             write_ply(files["PLY binary, float, normals"], P, N, kind="float")
             write_ply(files["PLY ASCII, normals"], np.round(P, 6), np.round(N, 6), fmt="ascii", kind="float")
             write_pcd(files["PCD binary, float, normals"], P, N)
