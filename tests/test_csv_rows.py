@@ -76,3 +76,53 @@ def test_what_cannot_be_formatted_is_said():
     assert can_format([np.array([], dtype=float)], [7])
     with pytest.raises(ValueError):
         format_rows([np.zeros(2), np.zeros(3)], [1, 1])
+
+
+# --------------------------------------------------------------------------- the deviation table
+def _table(n, seed=0):
+    from bladerecon.fc.deviation import PointDeviation
+    rng = np.random.default_rng(seed)
+    P = rng.normal(size=(n, 3)) * 40.0
+    signed = rng.normal(size=n) * 0.05
+    signed[n - 5] = np.nan                    # a block the numpy formatter cannot take, in the second half
+    N = rng.normal(size=(n, 3))
+    N /= np.linalg.norm(N, axis=1)[:, None]
+    return P, PointDeviation(signed, P, N, rng.integers(0, 6, n), ("core",))
+
+
+def _written(tmp_path, name, P, dev):
+    from bladerecon.fc.deviation import write_deviation_csv
+    out = tmp_path / name
+    write_deviation_csv(str(out), P, dev)
+    return out.read_bytes()
+
+
+def test_the_deviation_table_split_over_a_child_is_the_same_file(tmp_path, monkeypatch):
+    """From _CSV_SPLIT rows a forked child formats the second half: the file is byte for byte the
+    one this process alone writes, also when the child fails; no hidden part is left."""
+    import os
+
+    import bladerecon.fc.deviation as fd
+    n = fd._CSV_SPLIT + 12_345
+    P, dev = _table(n)
+    monkeypatch.setenv("BLADERECON_PROCESSES", "0")             # no fork: one process writes it all
+    alone = _written(tmp_path, "alone.csv", P, dev)
+    monkeypatch.setenv("BLADERECON_PROCESSES", "1")
+    from bladerecon.core.geometry.projection.parallel import _can_fork
+    if not _can_fork():
+        pytest.skip("a fork is not safe in this process (threads running): the split is not taken")
+    split = _written(tmp_path, "split.csv", P, dev)
+    assert split == alone
+    assert alone.count(b"\n") == n + 1 and b",nan," in alone
+    # a child that fails: its half is formatted here
+    parent = os.getpid()
+    original = fd._write_rows
+
+    def failing_in_a_child(fh, points, d, start, stop):
+        if os.getpid() != parent:
+            raise RuntimeError("the child fails")
+        return original(fh, points, d, start, stop)
+
+    monkeypatch.setattr(fd, "_write_rows", failing_in_a_child)
+    assert _written(tmp_path, "failed_child.csv", P, dev) == alone
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["alone.csv", "failed_child.csv", "split.csv"]

@@ -386,6 +386,7 @@ def deviation_summary(signed: np.ndarray, tolerance: float) -> dict:
 
 
 _CSV_BLOCK = 16_384      # rows formatted at a time by write_deviation_csv
+_CSV_SPLIT = 200_000     # from this many rows the second half is formatted by a forked child
 
 
 def write_deviation_csv(path: str, points: np.ndarray, dev: PointDeviation) -> None:
@@ -393,30 +394,62 @@ def write_deviation_csv(path: str, points: np.ndarray, dev: PointDeviation) -> N
 
     Lengths and normal components with 7 decimals (0.1 nm), formatted by numpy
     (:mod:`bladerecon.core.io.csv_rows`: 1M rows in ~0.6 s instead of ~1.3 s); values that
-    cannot be (not finite, beyond 4.5e8 mm) are written with ``%.9g`` instead."""
+    cannot be (not finite, beyond 4.5e8 mm) are written with ``%.9g`` instead. From
+    ``_CSV_SPLIT`` rows, where a fork is safe, a forked child formats the second half into a
+    hidden file beside the target while this process formats the first; the two are joined
+    (a child that fails has its half formatted here). The file is the same either way."""
+    import shutil
     import tempfile
 
-    from bladerecon.core.io.csv_rows import can_format, format_rows
+    from bladerecon.core.geometry.projection.parallel import _can_fork, _fork_blocks
 
     path = os.path.abspath(path)
+    n = len(points)
     fd, tmp = tempfile.mkstemp(prefix=".deviations-", suffix=".csv", dir=os.path.dirname(path))
+    part = None
     try:
         with os.fdopen(fd, "wb") as fh:
             fh.write(b"x,y,z,deviation,nx,ny,nz,face\n")
-            row = "%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%d\n"
-            decimals = [7] * 7 + [0]
-            for s in range(0, len(points), _CSV_BLOCK):    # the text of one block in memory at a time
-                e = min(s + _CSV_BLOCK, len(points))
-                columns = [points[s:e, 0], points[s:e, 1], points[s:e, 2], dev.signed[s:e],
-                           dev.normal[s:e, 0], dev.normal[s:e, 1], dev.normal[s:e, 2], dev.face[s:e]]
-                if can_format(columns, decimals):
-                    fh.write(format_rows(columns, decimals))
-                else:
-                    block = np.column_stack(columns)
-                    fh.write(((row * (e - s)) % tuple(block.ravel().tolist())).encode("ascii"))
+            if n >= _CSV_SPLIT and _can_fork():
+                pfd, part = tempfile.mkstemp(prefix=".deviations-", suffix=".part", dir=os.path.dirname(path))
+                os.close(pfd)
+                half = (n // 2) // _CSV_BLOCK * _CSV_BLOCK     # the same blocks as one process: the same text
+
+                def work(s: int, e: int, _workers: int) -> None:
+                    if s == 0:
+                        _write_rows(fh, points, dev, s, e)
+                    else:                   # the child's half, or the parent's after a failed child
+                        with open(part, "wb") as ph:
+                            _write_rows(ph, points, dev, s, e)
+
+                _fork_blocks([[(0, half)], [(half, n)]], work)
+                with open(part, "rb") as ph:
+                    shutil.copyfileobj(ph, fh, 1 << 22)
+            else:
+                _write_rows(fh, points, dev, 0, n)
         os.chmod(tmp, 0o644)
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):
             os.unlink(tmp)
         raise
+    finally:
+        if part is not None and os.path.exists(part):
+            os.unlink(part)
+
+
+def _write_rows(fh, points: np.ndarray, dev: PointDeviation, start: int, stop: int) -> None:
+    """Rows ``start:stop`` of the deviation table, ``_CSV_BLOCK`` rows of text in memory at a time."""
+    from bladerecon.core.io.csv_rows import can_format, format_rows
+
+    row = "%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%d\n"
+    decimals = [7] * 7 + [0]
+    for s in range(start, stop, _CSV_BLOCK):
+        e = min(s + _CSV_BLOCK, stop)
+        columns = [points[s:e, 0], points[s:e, 1], points[s:e, 2], dev.signed[s:e],
+                   dev.normal[s:e, 0], dev.normal[s:e, 1], dev.normal[s:e, 2], dev.face[s:e]]
+        if can_format(columns, decimals):
+            fh.write(format_rows(columns, decimals))
+        else:
+            block = np.column_stack(columns)
+            fh.write(((row * (e - s)) % tuple(block.ravel().tolist())).encode("ascii"))
