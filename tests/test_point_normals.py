@@ -58,36 +58,37 @@ def test_csv_normal_columns_in_any_place(tmp_path, names):
     f = tmp_path / "n.csv"
     a, b, c = names.split(",")
     f.write_text(f"{a},section,x,{b},y,z,{c}\n" + "".join(
-        f"{n[0]!r},{1 + k // 25},{p[0]!r},{n[1]!r},{p[1]!r},{p[2]!r},{n[2]!r}\n" for k, (p, n) in enumerate(zip(P, N))))
+        f"{n[0]!r},{1 + k // 25},{p[0]!r},{n[1]!r},{p[1]!r},{p[2]!r},{n[2]!r}\n"
+        for k, (p, n) in enumerate(zip(P.tolist(), N.tolist()))))
     ps = read_points(f)
     assert np.array_equal(ps.points, P) and np.allclose(ps.normals, N, atol=1e-15)
     assert ps.section_names == ("1", "2") and ps.section.tolist() == [0] * 25 + [1] * 25
 
 
 def test_a_normal_that_is_not_unit_names_its_line(tmp_path):
+    """``x y z i j k`` lines say the last three are a normal: one that is not is refused."""
     P, N = _cloud(2, 10)
     N[6] *= 1.5
-    for name, text in (("bad.xyz", _rows(P, N)), ("bad.csv", "x,y,z,nx,ny,nz\n" + _rows(P, N, ","))):
+    f = tmp_path / "bad.xyz"
+    f.write_text(_rows(P, N))
+    with pytest.raises(BladeReconError, match=r"bad.xyz, line 7: the normal .* has length 1.5, not 1"):
+        read_points(f, require_sections=False)
+
+
+def test_csv_columns_that_are_no_normals_are_ignored_as_before(tmp_path):
+    """Named columns may hold something else (files read before normals were): not unit, text,
+    or not all three (a grid's i, j, k indices; nx, ny alone) -- ignored, the points read."""
+    P, N = _cloud(2, 10)
+    N[6] *= 1.5
+    cases = {"not_unit.csv": "x,y,z,nx,ny,nz\n" + _rows(P, N, ","),
+             "grid.csv": "i,j,k,x,y,z\n" + "".join(f"1,{k},1,{x!r},{y!r},{z!r}\n" for k, (x, y, z) in enumerate(P.tolist())),
+             "two.csv": "x,y,z,nx,ny\n" + "".join(f"{x!r},{y!r},{z!r},0,1\n" for x, y, z in P.tolist()),
+             "text.csv": "x,y,z,i,j,k\n" + "".join(f"{x!r},{y!r},{z!r},a,b,c\n" for x, y, z in P.tolist())}
+    for name, text in cases.items():
         f = tmp_path / name
         f.write_text(text)
-        line = 7 if name.endswith(".xyz") else 8
-        with pytest.raises(BladeReconError, match=rf"{name}, line {line}: the normal .* has length 1.5, not 1"):
-            read_points(f, require_sections=False)
-
-
-def test_a_partial_normal_header_is_refused_and_grid_indices_are_not_normals(tmp_path):
-    f = tmp_path / "part.csv"
-    f.write_text("x,y,z,nx,ny\n1,2,3,0,1\n")
-    with pytest.raises(BladeReconError, match="line 1: the header names normal column.*'nz'"):
-        read_points(f, require_sections=False)
-    # a structured grid's i, j, k indices beside x, y, z: ignored as before, not refused
-    g = tmp_path / "grid.csv"
-    g.write_text("i,j,k,x,y,z\n1,1,1,1.5,2,3\n1,2,1,2.5,2,3\n2,2,1,3.5,2,3\n")
-    ps = read_points(g, require_sections=False)
-    assert ps.normals is None and ps.points[:, 0].tolist() == [1.5, 2.5, 3.5]
-    g2 = tmp_path / "grid2.csv"
-    g2.write_text("i,j,x,y,z\n1,1,1.5,2,3\n1,2,2.5,2,3\n")
-    assert read_points(g2, require_sections=False).normals is None
+        ps = read_points(f, require_sections=False)
+        assert ps.normals is None and np.array_equal(ps.points, P), name
 
 
 # --------------------------------------------------------------------------- compensation

@@ -7,8 +7,8 @@ Three text formats and two scanner formats, recognised by content (never by file
     A header row naming ``x``, ``y``, ``z`` (case-insensitive, any order, an optional
     unit suffix ``x [mm]`` / ``x_mm``; extra columns ignored) and optionally ``section``,
     a label (int or text), and a unit normal per point (``nx, ny, nz``, ``i, j, k`` or
-    ``normal_x, ...``: all three or none; a row whose normal is not of unit length is refused,
-    naming its line). Delimiter ``,`` or ``;`` (detected from the header; with ``;``
+    ``normal_x, ...``: kept when all three are there and every row's is of unit length, else
+    ignored like any extra column). Delimiter ``,`` or ``;`` (detected from the header; with ``;``
     a decimal comma is accepted). Without a ``section`` column, blank lines separate
     the sections.
 ``xyz-blocks``
@@ -560,15 +560,16 @@ def _read_fast(source: str, require_sections: bool, headerless: bool = False) ->
         if sep != "," or data.size < 2:
             return None
         idx, skip, ncol = data[1:], first + 1, len(names)
-        pick = ([col[c] for c in "xyz"] + ([col["section"]] if "section" in col else [])
-                + [col[c] for c in _NORMAL if c in col])
+        pick = [col[c] for c in "xyz"] + ([col["section"]] if "section" in col else [])
+        normal_cols = [col[c] for c in _NORMAL if c in col]
     elif n_numeric == len(tokens) in (3, 4, 6) and "," not in head_text and ";" not in head_text:
         sep, idx, skip, ncol = None, data, first, len(tokens)
-        pick = list(range(6)) if ncol == 6 else list(range(ncol - 3, ncol))
+        pick = [0, 1, 2] if ncol == 6 else list(range(ncol - 3, ncol))
+        normal_cols = [3, 4, 5] if ncol == 6 else []
     elif headerless and n_numeric == len(tokens) in (3, 4):
         sep = ";" if ";" in head_text else ","
         idx, skip, ncol = data, first, len(tokens)
-        pick = list(range(ncol - 3, ncol))
+        pick, normal_cols = list(range(ncol - 3, ncol)), []
     else:
         return None
     try:   # numpy's C parser reads the file itself, in chunks
@@ -581,15 +582,15 @@ def _read_fast(source: str, require_sections: bool, headerless: bool = False) ->
         return None
     if table.shape != (idx.size, ncol) or not np.isfinite(table).all():
         return None
+    normals = None
+    if normal_cols:    # judged on the table's columns in place: no copy of them unless they are normals
+        normals = _unit_normals(source, idx, [table[:, k] for k in normal_cols], loose=sep is not None)
     if pick != list(range(ncol)):                        # only the columns kept (no copy of x,y,z alone)
         table = table[:, pick]
     xyz = table[:, :3]                                   # idx: 0-based line of each row (an array)
     fmt = "xyz-blocks" if sep is None or headerless else "csv"
     if headerless:
         return _point_set(source, fmt, xyz, np.zeros(idx.size, dtype=int), idx, ["1"], structured=False)
-    normals = None
-    if len(pick) >= 6:                                   # the last three picked: the file's normals
-        normals = _unit_normals(source, idx, table[:, len(pick) - 3:len(pick)], sep is not None and "loose" in col)
     if sep == "," and "section" in col:
         labels = table[:, 3]
         if not np.all(labels == np.floor(labels)) or np.abs(labels).max() >= 2 ** 53:
@@ -708,7 +709,8 @@ def _section_labels_of_numbers(labels: np.ndarray) -> tuple[np.ndarray, list[str
 
 def _header(source: str, header: str, first: int) -> tuple[str | None, list[str], dict[str, int]]:
     """A CSV header line -> (separator, column names, {x, y, z[, section][, nx, ny, nz]: column});
-    normal columns may also be named i, j, k or normal_x, normal_y, normal_z."""
+    normal columns may also be named i, j, k or normal_x, normal_y, normal_z, and are kept only
+    when all three are there."""
     sep = ";" if header.count(";") > header.count(",") else ","
     if sep not in header:
         sep = None  # one header cell, or whitespace-separated: reported below if unusable
@@ -722,20 +724,9 @@ def _header(source: str, header: str, first: int) -> tuple[str | None, list[str]
                 raise BladeReconError(f"{source}, line {first + 1}: column '{n}' appears twice "
                                       "in the header: keep one")
             col[n] = k
-    given = [c for c in _NORMAL if c in col]
-    if any(n in ("i", "j", "k") for n in plain):
-        # i, j, k may be a structured grid's indices, not a normal: taken as normals only when all
-        # three are there and every row is of unit length, else ignored as any extra column
-        if len(given) < 3:
-            for c in given:
-                del col[c]
-            given = []
-        else:
-            col["loose"] = 1
-    if given and len(given) < 3:
-        raise BladeReconError(f"{source}, line {first + 1}: the header names normal column(s) "
-                              f"{', '.join(map(repr, given))} but not {', '.join(repr(c) for c in _NORMAL if c not in col)}: "
-                              "give all three (nx, ny, nz or i, j, k) or none")
+    if not all(c in col for c in _NORMAL):
+        for c in _NORMAL:      # a normal needs all three (i, j alone may be a grid's indices): ignored
+            col.pop(c, None)
     missing = [c for c in "xyz" if c not in col]
     if missing:
         found = ", ".join(f"'{shown(n, 30)}'" for n in names[:12]) + (", …" if len(names) > 12 else "")
@@ -761,10 +752,8 @@ def _read_csv(source: str, lines: list[str], first: int, require_sections: bool 
         try:
             values = [_to_float(source, idx, v, names[col[c]], decimal_comma) for v, c in zip(cells, _NORMAL)]
         except BladeReconError:
-            if "loose" not in col:
-                raise
-            values = None      # i, j, k with text in them: not a normal, an extra column
-        normals = None if values is None else _unit_normals(source, idx, np.column_stack(values), "loose" in col)
+            values = None      # text in them: not a normal, an extra column
+        normals = None if values is None else _unit_normals(source, idx, np.column_stack(values), loose=True)
     if "section" in col:
         section, names_found = _section_labels(source, idx, [r[col["section"]] for r in rows])
         return _point_set(source, "csv", xyz, section, idx, names_found, normals=normals)
@@ -774,21 +763,23 @@ def _read_csv(source: str, lines: list[str], first: int, require_sections: bool 
                       structured=bool(block[-1] > 0), normals=normals)
 
 
-def _unit_normals(source: str, idx, normals: np.ndarray, loose: bool = False) -> np.ndarray | None:
-    """A file's normals (N, 3), each checked to be of unit length (within _UNIT_NORMAL_TOL) and
-    made exactly so; a row that is not names its line (``loose``, columns named i, j, k: None,
-    they are taken for something else)."""
-    length = np.sqrt(np.einsum("ij,ij->i", normals, normals))
+def _unit_normals(source: str, idx, normals, loose: bool = False) -> np.ndarray | None:
+    """A file's normals ((N, 3), or their three columns), each checked to be of unit length (within _UNIT_NORMAL_TOL) and
+    made exactly so; a row that is not names its line (``x y z i j k`` lines, where the six
+    columns say they are normals). ``loose`` (a CSV's named columns: they may hold something
+    else, and such files were read before normals were): None, the columns ignored."""
+    a, b, c = (normals[:, 0], normals[:, 1], normals[:, 2]) if isinstance(normals, np.ndarray) else normals
+    length = np.sqrt(a * a + b * b + c * c)
     bad = np.flatnonzero(~(np.abs(length - 1.0) <= _UNIT_NORMAL_TOL))
     if bad.size and loose:
         return None
     if bad.size:
         k = int(bad[0])
         raise BladeReconError(
-            f"{source}, line {int(idx[k]) + 1}: the normal ({', '.join(f'{v:.6g}' for v in normals[k])}) has length "
+            f"{source}, line {int(idx[k]) + 1}: the normal ({', '.join(f'{v[k]:.6g}' for v in (a, b, c))}) has length "
             f"{length[k]:.4g}, not 1 ({bad.size} row(s) like it): give unit normals (nx ny nz or i j k) after "
             "x y z, or the coordinates alone")
-    return normals / length[:, None]
+    return np.column_stack([a / length, b / length, c / length])
 
 
 def _section_labels(source: str, idx: list[int], cells: list[str]) -> tuple[np.ndarray, list[str]]:
