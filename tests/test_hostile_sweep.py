@@ -463,3 +463,36 @@ def test_a_signal_while_the_command_starts_is_one_line_never_a_traceback(tmp_pat
             assert err.strip() in ("bladerecon: terminated (SIGTERM); no output was completed",
                                    "bladerecon: interrupted; no output was completed"), err
     assert status in seen, seen
+
+
+_STOP_IN_SCIPYS_GENERATED_CODE = r'''
+import builtins, os, signal, sys
+import scipy._lib.decorator as generated
+
+def compile_then_stop(*args, **kwargs):       # the SIGTERM lands while scipy builds a function from source
+    code = builtins.compile(*args, **kwargs)
+    os.kill(os.getpid(), signal.SIGTERM)
+    return code
+
+generated.compile = compile_then_stop
+from bladerecon.cli.main import main
+sys.exit(main(sys.argv[1:]))
+'''
+
+
+def test_a_stop_while_scipy_builds_its_functions_is_one_line(tmp_path):
+    """scipy builds some functions from generated source (scipy._lib.decorator) and prints that
+    source for any exception in it: a SIGTERM there (0.15 s into `deviation`, under load) printed
+    "Error in generated code: def bicgstab(...)" above the one line. The commands load those
+    modules with the signals held; the stop is delivered after, as the one line and 143."""
+    import subprocess
+    import sys
+
+    root = Path(__file__).resolve().parent.parent
+    proc = subprocess.run([sys.executable, "-c", _STOP_IN_SCIPYS_GENERATED_CODE, "deviation",
+                           str(root / "resources" / "sample" / "measured.csv"), "--nominal",
+                           str(root / "resources" / "sample" / "nominal.step"), "--quiet"],
+                          env=dict(os.environ, PYTHONPATH=str(root)), cwd=tmp_path, capture_output=True, text=True,
+                          timeout=120)
+    assert proc.returncode == 143, (proc.returncode, proc.stderr)
+    assert proc.stderr.strip() == "bladerecon: terminated (SIGTERM); no output was completed", proc.stderr

@@ -249,6 +249,27 @@ def _main_thread() -> bool:
     return threading.current_thread() is threading.main_thread()
 
 
+# Commands that never load scipy's solvers: no reason to spend their start-up on them.
+_LIGHT_COMMANDS = ("acquire", "simulate-instrument")
+# scipy's modules the commands load on their way: scipy builds some functions from generated
+# source (scipy._lib.decorator: sparse.linalg's iterative solvers), and prints that source to
+# stderr for any exception in it, a Ctrl-C's or a SIGTERM's too ("Error in generated code: ...",
+# then the one line; seen at 0.15 s into `deviation`, 2026-11-28)
+_SCIPY_MODULES = ("scipy.sparse.linalg", "scipy.spatial", "scipy.optimize", "scipy.interpolate")
+
+
+def _load_scipy() -> None:
+    """Load :data:`_SCIPY_MODULES` now (the caller holds Ctrl-C and SIGTERM, delivered after):
+    most commands load them within their first second anyway."""
+    import importlib
+
+    for name in _SCIPY_MODULES:
+        try:
+            importlib.import_module(name)
+        except ImportError:           # said where the command needs it, as before
+            pass
+
+
 def _main(argv: list[str]) -> int:
     from bladerecon.core.io.outputs import signals_held
 
@@ -265,6 +286,9 @@ def _main(argv: list[str]) -> int:
     if missing:    # before any output: a STEP written and then no report is worse than nothing
         print(interpreter_error(missing, argv), file=sys.stderr)
         return 2
+    if args.command not in _LIGHT_COMMANDS:
+        with signals_held():
+            _load_scipy()
     try:
         summary = args.run(args)
         if args.command == "simulate-instrument":   # one line: a controlling script reads it at once
