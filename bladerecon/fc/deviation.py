@@ -354,6 +354,7 @@ def measure_deviation(points: np.ndarray, nominal: Nominal, align: str = "none",
         outward = nominal.measure(Q).normal @ R
         if normals is not None:
             given = np.asarray(normals, float)
+            given = given / np.linalg.norm(given, axis=1)[:, None]     # within 1 % of unit as read: exactly
             outward = given * np.where(np.einsum("ij,ij->i", given, outward) < 0.0, -1.0, 1.0)[:, None]
         P = P - offset * outward
     t1 = time.perf_counter()

@@ -82,8 +82,9 @@ class PointSet:
             ``'ply-binary'``, ``'pcd-ascii'``, ``'pcd-binary'``.
         structured: False for one block of points with no section labels (read with
             ``require_sections=False``): a cloud, not one measured section.
-        normals: (N, 3) unit normals when the file gives them (PLY ``nx ny nz``, PCD
-            ``normal_x ...``), else None.
+        normals: (N, 3) normals as the file gives them (PLY ``nx ny nz``, PCD ``normal_x ...``,
+            ``x y z i j k`` lines, ``nx,ny,nz`` / ``i,j,k`` CSV columns), each within 1 % of unit
+            length (files whose aren't: None, or for ``x y z i j k`` lines refused), else None.
         left_out: points of the file not in ``points`` (a PCD's NaN pixels).
     """
 
@@ -251,8 +252,11 @@ def _scan_point_set(source: str, raw: bytes, require_sections: bool) -> PointSet
     if require_sections:
         raise BladeReconError(f"{source}: a {scan.format.split('-')[0].upper()} scan: {_NO_STRUCTURE}")
     n = len(scan.points)
+    # its normals as a CSV's named columns: kept where every one is of unit length (a scanner may
+    # write zeros or unnormalised vectors where it has none), else left out
+    normals = None if scan.normals is None else _unit_normals(source, scan.index, scan.normals, loose=True)
     return PointSet(np.ascontiguousarray(scan.points), np.zeros(n, dtype=int), np.asarray(scan.index), ("1",),
-                    source, scan.format, structured=False, normals=scan.normals, left_out=scan.left_out)
+                    source, scan.format, structured=False, normals=normals, left_out=scan.left_out)
 
 
 def _open_error(source: str, err: OSError) -> BladeReconError:
@@ -764,8 +768,8 @@ def _read_csv(source: str, lines: list[str], first: int, require_sections: bool 
 
 
 def _unit_normals(source: str, idx, normals, loose: bool = False) -> np.ndarray | None:
-    """A file's normals ((N, 3), or their three columns), each checked to be of unit length (within _UNIT_NORMAL_TOL) and
-    made exactly so; a row that is not names its line (``x y z i j k`` lines, where the six
+    """A file's normals ((N, 3), or their three columns), each checked to be of unit length (within
+    _UNIT_NORMAL_TOL), as written (who uses them scales them to 1); a row that is not names its line (``x y z i j k`` lines, where the six
     columns say they are normals). ``loose`` (a CSV's named columns: they may hold something
     else, and such files were read before normals were): None, the columns ignored."""
     a, b, c = (normals[:, 0], normals[:, 1], normals[:, 2]) if isinstance(normals, np.ndarray) else normals
@@ -779,7 +783,7 @@ def _unit_normals(source: str, idx, normals, loose: bool = False) -> np.ndarray 
             f"{source}, line {int(idx[k]) + 1}: the normal ({', '.join(f'{v[k]:.6g}' for v in (a, b, c))}) has length "
             f"{length[k]:.4g}, not 1 ({bad.size} row(s) like it): give unit normals (nx ny nz or i j k) after "
             "x y z, or the coordinates alone")
-    return np.column_stack([a / length, b / length, c / length])
+    return np.column_stack([a, b, c])
 
 
 def _section_labels(source: str, idx: list[int], cells: list[str]) -> tuple[np.ndarray, list[str]]:
