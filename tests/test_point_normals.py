@@ -143,3 +143,14 @@ def test_without_the_files_normals_the_twist_costs_accuracy(twisted):
     summary, dev = _compensated(tmp, "plain.xyz", _rows(S + 1.5 * N))
     assert summary["compensation"]["normals"] == "nominal"
     assert np.abs(dev - truth).max() > 1e-3, np.abs(dev - truth).max()
+
+
+def test_a_scans_zero_normals_are_not_taken(tmp_path):
+    """A scanner that has no normal for its points may write zeros: not normals (a compensation
+    along them would not move the point); unit ones, float32 or double, are kept as written."""
+    from scan_files import write_ply
+    P, N = _cloud(3)
+    zero = read_points(write_ply(tmp_path / "zero.ply", P, np.zeros_like(N)), require_sections=False)
+    assert zero.normals is None and np.array_equal(zero.points, P.astype(np.float32).astype(float))
+    kept = read_points(write_ply(tmp_path / "unit.ply", P, N, kind="float"), require_sections=False)
+    assert np.array_equal(kept.normals, N.astype(np.float32).astype(float))
