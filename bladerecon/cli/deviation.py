@@ -116,12 +116,8 @@ def _read_measured(path: str):
 
 
 def _read_measured_lines(path: str, memory_limit: float | None = None):
-    """As :func:`_read_measured`, and each point's file line (or a scan's vertex number)."""
-    return _read_measured_set(path, memory_limit)[:4]
-
-
-def _read_measured_set(path: str, memory_limit: float | None = None):
-    """As :func:`_read_measured_lines`, and the file's unit normals (N, 3) or None."""
+    """As :func:`_read_measured`, and each point's file line (or a scan's vertex number) and the
+    file's normals (N, 3) or None."""
     from bladerecon.core.io.readers import read_points
 
     ps = read_points(path, require_sections=False, memory_limit=memory_limit)
@@ -146,7 +142,7 @@ def _run(args: argparse.Namespace, temps: dict) -> dict:
     else:
         from bladerecon.core.io.readers import check_file
         check_file("deviation", args.measured, getattr(args, "memory_limit", None))   # before it is read
-        points, section, names, lines, normals = _read_measured_set(args.measured, getattr(args, "memory_limit", None))
+        points, section, names, lines, normals = _read_measured_lines(args.measured, getattr(args, "memory_limit", None))
     _say(args, f"{len(points)} points; reading nominal {args.nominal}")
     nominal = load_nominal(args.nominal)
     from bladerecon.fc.deviation import blade_like_warning

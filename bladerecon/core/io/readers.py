@@ -254,7 +254,7 @@ def _scan_point_set(source: str, raw: bytes, require_sections: bool) -> PointSet
     n = len(scan.points)
     # its normals as a CSV's named columns: kept where every one is of unit length (a scanner may
     # write zeros or unnormalised vectors where it has none), else left out
-    normals = None if scan.normals is None else _unit_normals(source, scan.index, scan.normals, loose=True)
+    normals = None if scan.normals is None else _unit_normals(source, scan.index, scan.normals.T, loose=True)
     return PointSet(np.ascontiguousarray(scan.points), np.zeros(n, dtype=int), np.asarray(scan.index), ("1",),
                     source, scan.format, structured=False, normals=normals, left_out=scan.left_out)
 
@@ -757,7 +757,7 @@ def _read_csv(source: str, lines: list[str], first: int, require_sections: bool 
             values = [_to_float(source, idx, v, names[col[c]], decimal_comma) for v, c in zip(cells, _NORMAL)]
         except BladeReconError:
             values = None      # text in them: not a normal, an extra column
-        normals = None if values is None else _unit_normals(source, idx, np.column_stack(values), loose=True)
+        normals = None if values is None else _unit_normals(source, idx, values, loose=True)
     if "section" in col:
         section, names_found = _section_labels(source, idx, [r[col["section"]] for r in rows])
         return _point_set(source, "csv", xyz, section, idx, names_found, normals=normals)
@@ -767,12 +767,13 @@ def _read_csv(source: str, lines: list[str], first: int, require_sections: bool 
                       structured=bool(block[-1] > 0), normals=normals)
 
 
-def _unit_normals(source: str, idx, normals, loose: bool = False) -> np.ndarray | None:
-    """A file's normals ((N, 3), or their three columns), each checked to be of unit length (within
-    _UNIT_NORMAL_TOL), as written (who uses them scales them to 1); a row that is not names its line (``x y z i j k`` lines, where the six
-    columns say they are normals). ``loose`` (a CSV's named columns: they may hold something
-    else, and such files were read before normals were): None, the columns ignored."""
-    a, b, c = (normals[:, 0], normals[:, 1], normals[:, 2]) if isinstance(normals, np.ndarray) else normals
+def _unit_normals(source: str, idx, columns, loose: bool = False) -> np.ndarray | None:
+    """A file's normals (N, 3) from their three ``columns`` (views of the table: not copied unless
+    kept), each checked to be of unit length (within _UNIT_NORMAL_TOL), as written (who uses them
+    scales them to 1). A row that is not names its line (``x y z i j k`` lines, where the six
+    columns say they are normals); ``loose`` (a CSV's named columns or a scan's: they may hold
+    something else, and such files were read before normals were): None, the columns ignored."""
+    a, b, c = columns
     length = np.sqrt(a * a + b * b + c * c)
     bad = np.flatnonzero(~(np.abs(length - 1.0) <= _UNIT_NORMAL_TOL))
     if bad.size and loose:
@@ -830,8 +831,8 @@ def _read_xyz_blocks(source: str, lines: list[str], first: int, ncol: int,
     xyz = np.column_stack([_to_float(source, idx, [r[k] for r in rows], names[k]) for k in range(at, at + 3)])
     normals = None
     if ncol == 6:
-        normals = _unit_normals(source, idx, np.column_stack([_to_float(source, idx, [r[k] for r in rows], names[k])
-                                                              for k in range(3, 6)]))
+        normals = _unit_normals(source, idx, [_to_float(source, idx, [r[k] for r in rows], names[k])
+                                              for k in range(3, 6)])
     if require_sections:
         _require_structure(source, idx, block)
     return _point_set(source, "xyz-blocks", xyz, block, idx, [str(b + 1) for b in range(block[-1] + 1)],
