@@ -9,6 +9,7 @@ distances (``occ_distances``), and the ``deviation`` subcommand run on the same 
 from __future__ import annotations
 
 import json
+import re
 import subprocess
 import sys
 import zipfile
@@ -117,6 +118,34 @@ def test_flow_direction_puts_every_leading_edge_upstream(tmp_path):
             u0, u1, v0, v1 = face.bounds()
             seam = np.array(tuple(face.value(u0, v0)))
             assert np.linalg.norm(seam - truth[0]) < 0.5, (flow, seam, truth[0])
+    finally:
+        FreeCAD.closeDocument(doc.Name)
+
+
+def test_edge_shapes_in_the_workbench(tmp_path):
+    """Issue 24 §3 in the document: Blade sections lists each edge's shape (an elliptic LE's
+    semi-axes, a flat TE's width and direction) and puts the LE/TE points on them."""
+    from section_files import write_sections_csv
+    from test_edge_shape import edge_profile
+
+    f = write_sections_csv(tmp_path / "shapes.csv", [edge_profile(z, 10.0, 600, 0.002, k)
+                                                     for k, z in enumerate((0.0, 5.0, 10.0))])
+    doc = FreeCAD.newDocument("ShapesTest")
+    try:
+        sections = bro.make_blade_sections(doc, bro.make_measured_points(doc, str(f)))
+        sections.FlowDirection = FreeCAD.Vector(1.0, 0.0, 0.0)
+        doc.recompute()
+        assert sections.Status == "ok", sections.Status
+        assert len(sections.LEShape) == len(sections.TEShape) == 3
+        for le, te in zip(sections.LEShape, sections.TEShape):
+            a, b = (float(v) for v in re.fullmatch(r"ellipse (\d\.\d{4}) × (\d\.\d{4}) mm \(tip radius \d\.\d{4} mm\)",
+                                                   le).groups())
+            assert abs(a / 1.2 - 1) < 0.025 and abs(b / 0.5 - 1) < 0.006, le
+            w, ang = (float(v) for v in re.fullmatch(r"flat (\d\.\d{4}) mm wide, normal (-?\d+\.\d\d)° from the chord",
+                                                     te).groups())
+            assert abs(w * np.cos(np.radians(10.0)) - 1.0) < 0.015 and abs(ang - 10.0) < 1.0, te
+        le, te = (np.array([tuple(v) for v in vs]) for vs in (sections.LeadingEdges, sections.TrailingEdges))
+        assert np.abs(le[:, :2]).max() < 0.006 and np.abs(te[:, :2] - [30.0, 0.0]).max() < 0.006, (le, te)
     finally:
         FreeCAD.closeDocument(doc.Name)
 

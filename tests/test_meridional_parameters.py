@@ -151,6 +151,42 @@ def test_m_theta_angles_and_lengths_equal_the_profile_placed_on_the_stream_surfa
         assert mb["r_ref_mm"] == pytest.approx(0.5 * (_cone_r(mp.min()) + _cone_r(mp.max())), abs=1e-9)
 
 
+@pytest.mark.parametrize("name", sorted(SURFACES))
+def test_m_theta_thickness_at_fractions_camber_height_and_area_on_the_surface(name):
+    """The gauges a drawing gives, on the stream surface (mm there): thickness at chord fractions
+    (inscribed diameter × r/R0 at its centre) within 2 µm, the camber height within 5 µm, and the
+    area ∬ (r/R0)² against a quadrature of its own (Fubini: the profile's height at 20001
+    stations of x times (r/R0)², not Green's theorem) within 1e-5 relative."""
+    make, radius_of, r0 = SURFACES[name]
+    m = _measure(make(_profile()), fractions=(0.1, 0.5, 0.9))
+    mb = m.as_dict()["meridional"]
+    le, te = (p[:2] for p in BLADE.le_te(0.0))
+    u = (te - le) / np.linalg.norm(te - le)
+    xi = np.linspace(0.0, 1.0, 20001)
+    cam = BLADE.camber_point(0.0, xi)[:, :2]
+    xc = (cam - le) @ u
+    thick = 2 * BLADE.half_thickness(0.0, xi) * radius_of(cam[:, 0] / r0) / r0
+    chord = float(np.linalg.norm(te - le))
+    assert set(mb["thickness_at_fraction_mm"]) == {"0.1", "0.5", "0.9"}
+    for f in (0.1, 0.5, 0.9):
+        assert abs(mb["thickness_at_fraction_mm"][f"{f:g}"] - np.interp(f * chord, xc, thick)) < 0.002, f
+    yc = (cam - le) @ np.array([-u[1], u[0]])
+    k = int(np.argmax(np.abs(yc)))
+    assert abs(mb["camber_height_mm"] - abs(yc[k]) * radius_of(cam[k, 0] / r0) / r0) < 0.005
+    assert abs(mb["camber_height_pos_frac"] - xc[k] / chord) < 0.005
+    dense = BLADE.point(0.0, t_at_length_fraction(BLADE, 0.0, np.arange(40000) / 40000))[:, :2]
+    X, Y = dense[:, 0], dense[:, 1]
+    X2, Y2 = np.roll(X, -1), np.roll(Y, -1)
+    xs = np.linspace(X.min(), X.max(), 20001)
+    height = np.empty(len(xs))
+    for i, x in enumerate(xs):
+        hit = ((X - x) * (X2 - x) <= 0) & (X != X2)
+        y = np.sort(Y[hit] + (x - X[hit]) * (Y2[hit] - Y[hit]) / (X2[hit] - X[hit]))
+        height[i] = np.sum(y[1::2] - y[::2]) if len(y) % 2 == 0 else y[-1] - y[0]
+    truth = np.trapz(height * (radius_of(xs / r0) / r0) ** 2, xs)
+    assert abs(mb["area_mm2"] / truth - 1) < 1e-5, (mb["area_mm2"], truth)
+
+
 # ---------------------------------------------------------------------- (b) cylinder
 def test_on_a_cylinder_m_theta_is_the_unrolled_cylinder():
     """r = const: m′–θ is the unrolled cylinder (a, r θ): chord and thickness equal the unrolled

@@ -163,7 +163,7 @@ def test_measure_section_gives_the_analytic_sections_figures(case):
     assert m.throat is None
     # the evidence of each edge circle: the measured points on its arc, the flanks' points, noise
     for fit, n, at_le in ((m.le_fit, m.le_fit_points, True), (m.te_fit, m.te_fit_points, False)):
-        assert set(fit) == {"arc_points", "flank_points", "rms", "flank_rms"}
+        assert set(fit) == {"arc_points", "flank_points", "rms", "flank_rms", "shape"} and fit["shape"] == "circle"
         assert fit["arc_points"] == n
         # exact but on the hub's LE, where one point 0.02 rad inside the true joint lies outside the
         # fitted one (13 against 12)
@@ -658,9 +658,12 @@ def test_an_elliptic_edge_is_reported_not_round_in_so_many_words():
     m = pm.measure_section(seg)
     assert len(m.warnings) == 1
     w = re.fullmatch(r"section 0: the leading edge is not a circle: its arc points scatter (\d+\.\d) µm rms about the "
-                     r"fitted circle against (\d+\.\d) µm on the flanks \(an elliptic, square or damaged edge\?\)",
-                     m.warnings[0])
+                     r"fitted circle against (\d+\.\d) µm on the flanks \(an ellipse fits it: semi-axes (\d+\.\d{3}) × "
+                     r"(\d+\.\d{3}) mm, (\d+\.\d) µm rms; see shape in the edge's fit\)", m.warnings[0])
     assert w and float(w[1]) == round(m.le_fit["rms"] * 1000, 1) and float(w[2]) == round(m.le_fit["flank_rms"] * 1000, 1)
+    ell = m.le_fit["ellipse"]
+    assert m.le_fit["shape"] == "ellipse" and float(w[3]) == round(ell["a_mm"], 3) and float(w[4]) == round(ell["b_mm"], 3)
+    assert float(w[5]) == round(ell["rms_mm"] * 1000, 1)
     assert m.le_fit["rms"] > 4 * m.le_fit["flank_rms"] + pm.NOT_ROUND
     assert abs(m.te_radius / 0.5 - 1) < 0.005
 
@@ -850,8 +853,9 @@ def test_not_round_needs_five_arc_points_and_a_scatter_beyond_four_times_the_fla
     seg = dataclasses.replace(_segment(P), index=8)
     _with_edge(monkeypatch, arc_points=arc, rms=rms, flank_rms=flank)
     m = pm.measure_section(seg)
+    # the edge is round: judged (when warned), no ellipse nor flat fits the scatter claimed better
     assert m.le_fit == {"arc_points": arc, "flank_points": m.le_fit["flank_points"], "rms": rms,
-                        "flank_rms": None if np.isnan(flank) else flank}
+                        "flank_rms": None if np.isnan(flank) else flank, "shape": "irregular" if warned else "circle"}
     want = tuple(f"section 8: the {n} is not a circle: its arc points scatter {rms * 1000:.1f} µm rms about the fitted "
                  f"circle against {flank * 1000:.1f} µm on the flanks (an elliptic, square or damaged edge?)"
                  for n in ("leading edge", "trailing edge")) if warned else ()

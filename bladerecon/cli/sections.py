@@ -217,9 +217,15 @@ def run_sections(args: argparse.Namespace) -> list:
         _judge(args, plan, out)
     if args.plots:
         _say(args, f"plots in {args.plots}")
+    blade_warning = getattr(args, "_blade_warning", None)
     for o in out:
         _say(args, f"section {o['index']}: chord {o['chord']:.3f} stagger {o['stagger_deg']:.2f}° "
-                   f"t_max {o['max_thickness']:.3f} r_LE {_fmt(o['le_radius'])} r_TE {_fmt(o['te_radius'])}")
+                   f"t_max {o['max_thickness']:.3f} {_edge(o, 'le')} {_edge(o, 'te')}")
+        # the section's own warnings (an edge not round, few points on an arc, ...), not only in
+        # the JSON: the blade's one was said above
+        for w in o["warnings"]:
+            if w != blade_warning:
+                _say(args, f"warning: {w}")
     return out
 
 
@@ -249,6 +255,7 @@ def _run(args, offsets, throat, plots, fractions=()) -> list:
     blade = segment_blade(pts, axis, throat=throat, max_gap=args.max_gap, flow=flow, le_points=le_points)
     if blade.warning:
         _say(args, f"warning: {blade.warning}")
+    args._blade_warning = blade.warning
     segs = blade.sections
     rotor = {"axis": getattr(args, "axis", None), "axis_point": getattr(args, "axis_point", None)}
     params = [measure_section(s, offsets, strict_radius=not args.lenient, fractions=fractions, **rotor) for s in segs]
@@ -320,3 +327,14 @@ def _judge(args, plan, out: list) -> None:
 
 def _fmt(v) -> str:
     return "n/a" if v is None else f"{v:.3f}"
+
+
+def _edge(o: dict, end: str) -> str:
+    """An edge in the summary line: its radius, or its ellipse's semi-axes or its flat's width (mm)."""
+    fit, name = o.get(f"{end}_fit") or {}, end.upper()
+    if fit.get("shape") == "ellipse":
+        e = fit["ellipse"]
+        return f"{name} ellipse {e['a_mm']:.3f}×{e['b_mm']:.3f}"
+    if fit.get("shape") == "flat":
+        return f"{name} flat {_fmt(fit['flat']['width_mm'])}"
+    return f"r_{name} {_fmt(o[f'{end}_radius'])}"

@@ -279,6 +279,23 @@ class SectionParameters:
     outlet_angle_deg: np.ndarray
     warnings: tuple[str, ...]
     le_rule: str = "first_point"    # how the LE was chosen (core.sections.parameters.LE_RULES)
+    le_shape: tuple[str, ...] = ()  # per section: circle, ellipse a × b, flat width, irregular (edge_shape_text)
+    te_shape: tuple[str, ...] = ()
+
+
+def edge_shape_text(fit: dict | None) -> str:
+    """An edge's shape in words with its figures (mm, degrees): what LEShape/TEShape list."""
+    if not fit:
+        return "not measured"
+    kind = fit.get("shape", "circle")
+    if kind == "ellipse":
+        e = fit["ellipse"]
+        return f"ellipse {e['a_mm']:.4f} × {e['b_mm']:.4f} mm (tip radius {e['tip_radius_mm']:.4f} mm)"
+    if kind == "flat":
+        f = fit["flat"]
+        width = "width unknown" if f["width_mm"] is None else f"{f['width_mm']:.4f} mm wide"
+        return f"flat {width}, normal {f['normal_to_chord_deg']:.2f}° from the chord"
+    return kind
 
 
 def flow_of(obj: Any) -> np.ndarray | None:
@@ -321,7 +338,8 @@ def section_parameters(section_set, flow: np.ndarray | None = None) -> SectionPa
         column("te_radius"), column("inlet_angle_deg"), column("outlet_angle_deg"),
         ((blade.warning,) if blade.warning else ())
         + tuple(f"{s.name}: {w}" for s, m in zip(section_set.sections, measured) for w in m.warnings),
-        blade.le_rule)
+        blade.le_rule, tuple(edge_shape_text(m.le_fit) for m in measured),
+        tuple(edge_shape_text(m.te_fit) for m in measured))
 
 
 class BladeSections(_Feature):
@@ -347,6 +365,10 @@ class BladeSections(_Feature):
         ("App::PropertyFloatList", "TERadius", "Parameters", "circle fit to the TE region (mm; nan: too few points)", 1),
         ("App::PropertyFloatList", "InletAngle", "Parameters", "camber-line angle at the LE (deg)", 1),
         ("App::PropertyFloatList", "OutletAngle", "Parameters", "camber-line angle at the TE (deg)", 1),
+        ("App::PropertyStringList", "LEShape", "Parameters",
+         "LE shape per section: circle, ellipse (semi-axes), flat (width, direction) or irregular", 1),
+        ("App::PropertyStringList", "TEShape", "Parameters",
+         "TE shape per section: circle, ellipse (semi-axes), flat (width, direction) or irregular", 1),
         ("App::PropertyStringList", "Warnings", "Parameters", "values that could not be measured, and why", 1),
     )
 
@@ -372,6 +394,7 @@ class BladeSections(_Feature):
             setattr(obj, prop, [float(v) for v in values])
         obj.Warnings = list(params.warnings)
         obj.LERule = params.le_rule
+        obj.LEShape, obj.TEShape = list(params.le_shape), list(params.te_shape)
 
 
 def make_blade_sections(doc: Any, points_obj: Any, name: str = "BladeSections") -> Any:

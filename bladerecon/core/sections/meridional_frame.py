@@ -311,6 +311,27 @@ def _rhumb_length(surf: RevolutionSurface, p0: np.ndarray, p1: np.ndarray) -> fl
     return float(np.linalg.norm(p1 - p0) * 0.5 * (surf.scale_at(x) @ _GL_W))
 
 
+def _surface_area(surf: RevolutionSurface, seg_c) -> float:
+    """Area on the surface (mm²) of a profile segmented in the conformal plane: ∬ (r/r_ref)² dA
+    = ∮ F(x) dy, F(x) = ∫ (r/r_ref)² dx (trapezoids on 4001 points), over its dense loop."""
+    from bladerecon.core.geometry.bspline import evaluate_curve
+
+    lo, hi = seg_c.curve.domain
+    loop = seg_c.table_points(_AREA_SAMPLES)
+    if loop is None:
+        loop = evaluate_curve(seg_c.curve, lo + (hi - lo) * np.arange(_AREA_SAMPLES) / _AREA_SAMPLES)
+    xy = seg_c.frame.to_space(loop)[:, :2]           # the segmentation's plane frame -> conformal (x, y)
+    x, y = xy[:, 0], xy[:, 1]
+    grid = np.linspace(x.min(), x.max(), 4001)
+    s2 = surf.scale_at(grid) ** 2
+    F = np.concatenate([[0.0], np.cumsum(0.5 * (s2[1:] + s2[:-1]) * np.diff(grid))])
+    xm = 0.5 * (x + np.roll(x, -1))
+    return float(abs(np.sum(np.interp(xm, grid, F) * (np.roll(y, -1) - y))))
+
+
+_AREA_SAMPLES = 8000
+
+
 def _peak(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
     """Largest y and its x: the vertex of the parabola through the top three samples."""
     k = int(np.argmax(y))
@@ -323,8 +344,8 @@ def _peak(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
     return float(y[k]), float(x[k])
 
 
-def measure_meridional(seg, measure, axis=None, axis_point=None,
-                       strict_radius: bool = True) -> tuple[dict | None, str | None]:
+def measure_meridional(seg, measure, axis=None, axis_point=None, strict_radius: bool = True,
+                       fractions: tuple = ()) -> tuple[dict | None, str | None]:
     """The m′–θ block of one segmented non-planar section, or (None, why not).
 
     The section's points (rebuilt from the segmentation: its plane points and offsets) are
@@ -334,7 +355,10 @@ def measure_meridional(seg, measure, axis=None, axis_point=None,
     the span-normal measurement. Angles are taken as measured (the map is conformal); lengths
     are scaled to mm on the surface with the local radius: ``chord_mm`` the surface length of
     the straight conformal chord (a rhumb line, ∫ r/r_ref dℓ), thicknesses and radii × r/r_ref
-    at their circle's centre.
+    at their circle's centre. ``fractions`` (of the conformal chord): the thickness there
+    (camber-line-normal convention) in mm on the surface; ``camber_height_mm`` likewise at its
+    place; ``area_mm2`` the profile's area on the surface, ∬ (r/r_ref)² over the conformal
+    profile (Green's theorem on the dense loop: ∮ F(x) dy with F′ = (r/r_ref)²).
     """
     if seg.offsets is None:
         return None, "no out-of-plane offsets kept"
@@ -372,6 +396,13 @@ def measure_meridional(seg, measure, axis=None, axis_point=None,
     def radius(rad, centre):
         return None if rad is None or centre is None else float(rad * surf.scale_at(centre[:1])[0])
 
+    xs, hs, cs = xc[order], half_mm[order], cam[order]
+    thick_frac = {f"{f:g}": (float(2 * np.interp(f * chord_c, xs, hs)) if xs[0] <= f * chord_c <= xs[-1] else None)
+                  for f in fractions}
+    v = np.array([-u[1], u[0]])
+    yc = (cs - le2) @ v
+    k_c = int(np.argmax(np.abs(yc)))
+    camber_mm = float(abs(yc[k_c]) * surf.scale_at(cs[k_c:k_c + 1, 0])[0])
     turning = (pc.inlet_angle_deg - pc.outlet_angle_deg + 180.0) % 360.0 - 180.0
     block = {"frame": FRAME, **surf.as_dict(),
              "lengths": "mm on the surface: chord_mm along the straight conformal chord (a rhumb line), "
@@ -388,5 +419,7 @@ def measure_meridional(seg, measure, axis=None, axis_point=None,
              "max_thickness_mm": 2.0 * r_max, "max_thickness_pos_frac": float(x_max / chord_c),
              "max_thickness_conformal_mm": pc.max_thickness,
              "le_radius_mm": radius(pc.le_radius, pc.le_center), "te_radius_mm": radius(pc.te_radius, pc.te_center),
+             "thickness_at_fraction_mm": thick_frac, "camber_height_mm": camber_mm,
+             "camber_height_pos_frac": float(xs[k_c] / chord_c), "area_mm2": _surface_area(surf, seg_c),
              "fit": fit.as_dict(), "warnings": list(pc.warnings)}
     return block, None

@@ -40,6 +40,7 @@ from scipy.spatial import cKDTree
 
 from bladerecon.core.geometry.bspline import curve_derivatives, evaluate_curve
 from bladerecon.core.errors import BladeReconError
+from bladerecon.core.sections.edge_shape import edge_shape
 from bladerecon.core.sections.segmentation import LE, PRESSURE, SUCTION, TE, Segmentation
 
 __all__ = ["SectionParameters", "measure_section", "segment_sections", "fit_circle", "kasa_circle", "inscribed_circles", "MIN_EDGE_POINTS",
@@ -450,6 +451,45 @@ def _edge_radius(seg: Segmentation, region: int, name: str, cam: np.ndarray, rad
     return ec
 
 
+def _shape_words(shape: dict) -> str:
+    """What the warning says an edge that is not a circle is."""
+    if shape["shape"] == "ellipse":
+        return (f"an ellipse fits it: semi-axes {shape['a']:.3f} × {shape['b']:.3f} mm, {shape['rms'] * 1000:.1f} µm rms; "
+                "see shape in the edge's fit")
+    if shape["shape"] == "flat":
+        width = "" if shape["width"] is None else f"{shape['width']:.3f} mm wide between the flanks, "
+        return f"a flat edge: {width}{shape['points']} points on a {shape['length']:.3f} mm flat; see shape in the edge's fit"
+    return "an elliptic, square or damaged edge?"
+
+
+def _shape_json(seg: Segmentation, shape: dict, u: np.ndarray) -> dict:
+    """The edge's shape for its fit record (3D points and unit vectors; mm, degrees): ``shape``
+    and, for an ellipse or a flat, its figures under that name."""
+    v = np.array([-u[1], u[0]])
+
+    def vec(d):             # an in-plane direction in space (unit)
+        return (seg.frame.to_space(np.atleast_2d(d))[0] - seg.frame.to_space(np.zeros((1, 2)))[0]).tolist()
+
+    def to_chord(d):        # a line's angle from the chord line (towards the LE→TE normal's left), degrees in (−90, 90]
+        a = (float(np.degrees(np.arctan2(d @ v, d @ u))) + 90.0) % 180.0 - 90.0
+        return 90.0 if a == -90.0 else a
+
+    kind = shape["shape"]
+    if kind == "ellipse":
+        return {"shape": kind, "ellipse": {
+            "a_mm": shape["a"], "b_mm": shape["b"], "ratio": shape["ratio"], "tip_radius_mm": shape["tip_radius"],
+            "centre": seg.lift(shape["centre"])[0].tolist(), "tip": seg.lift(shape["tip"])[0].tolist(),
+            "major_axis": vec(shape["major_axis"]), "axis_to_chord_deg": to_chord(shape["major_axis"]),
+            "points": shape["points"], "rms_mm": shape["rms"]}}
+    if kind == "flat":
+        normal = np.array([shape["direction"][1], -shape["direction"][0]])
+        return {"shape": kind, "flat": {
+            "width_mm": shape["width"], "length_mm": shape["length"], "midpoint": seg.lift(shape["tip"])[0].tolist(),
+            "direction": vec(shape["direction"]), "normal_to_chord_deg": to_chord(normal),
+            "points": shape["points"], "rms_mm": shape["rms"]}}
+    return {"shape": kind}
+
+
 def _angle_deg(v: np.ndarray) -> float:
     return float(np.degrees(np.arctan2(v[1], v[0])))
 
@@ -519,17 +559,20 @@ def measure_section(seg: Segmentation, offsets: tuple[float, ...] = (), n_points
     in ``warnings``, when it is not on one. Planar sections get no such key.
     """
     c, r = inscribed_circles(seg)
-    edges, warnings, fits, axes = [], [], [], []
+    edges, warnings, fits, axes, shapes = [], [], [], [], []
     for region, name in ((LE, "leading edge"), (TE, "trailing edge")):
         try:
             ec = _edge_radius(seg, region, name, c, r)
             edges.append((ec.centre, ec.radius, ec.arc_points))
             fits.append({"arc_points": ec.arc_points, "flank_points": list(ec.flank_points), "rms": ec.rms,
                          "flank_rms": None if not np.isfinite(ec.flank_rms) else ec.flank_rms})
+            shape = {"shape": "circle"}
             if ec.arc_points >= 5 and np.isfinite(ec.flank_rms) and ec.rms > 4 * ec.flank_rms + NOT_ROUND:
+                shape = edge_shape(seg.points2d, ec.centre, ec.radius, ec.axis, ec.flank_rms, NOT_ROUND)
                 warnings.append(f"section {seg.index}: the {name} is not a circle: its arc points scatter "
                                 f"{ec.rms * 1000:.1f} µm rms about the fitted circle against {ec.flank_rms * 1000:.1f} µm "
-                                "on the flanks (an elliptic, square or damaged edge?)")
+                                f"on the flanks ({_shape_words(shape)})")
+            shapes.append(shape)
             axes.append(ec.axis)
             if ec.arc_points == 0:
                 warnings.append(f"section {seg.index}: no measured point lies on the {name}'s arc: its radius is "
@@ -545,8 +588,13 @@ def measure_section(seg: Segmentation, offsets: tuple[float, ...] = (), n_points
             edges.append((seg.le if region == LE else seg.te, None, 0))
             fits.append(None)
             axes.append(None)
+            shapes.append(None)
     (le_c, le_r, le_n), (te_c, te_r, te_n) = edges
     le2, te2 = _ends_from_circles(seg, le_c, le_r, te_c, te_r)
+    # an elliptic or flat edge ends at its ellipse's tip or its flat's midpoint, not on its best circle
+    tips = [sh["tip"] if sh is not None and "tip" in sh else None for sh in shapes]
+    le2 = le2 if tips[0] is None else tips[0]
+    te2 = te2 if tips[1] is None else tips[1]
     chord2 = float(np.linalg.norm(te2 - le2))
     u = (te2 - le2) / chord2
     x = (c - le2) @ u
@@ -576,8 +624,11 @@ def measure_section(seg: Segmentation, offsets: tuple[float, ...] = (), n_points
     le3, te3 = seg.lift(le2)[0], seg.lift(te2)[0]
     inlet = _metal_angle(seg, c, True, le_c)
     outlet = _metal_angle(seg, c, False, te_c)
-    ends_camber = [None if (cc is None or rr_ is None or ax is None) else seg.lift(cc - rr_ * ax)[0].tolist()
-                   for cc, rr_, ax in ((le_c, le_r, axes[0]), (te_c, te_r, axes[1]))]
+    ends_camber = [None if (cc is None or rr_ is None or ax is None) else seg.lift(cc - rr_ * ax if tip is None else tip)[0].tolist()
+                   for cc, rr_, ax, tip in ((le_c, le_r, axes[0], tips[0]), (te_c, te_r, axes[1], tips[1]))]
+    for fit, sh in zip(fits, shapes):
+        if fit is not None and sh is not None:
+            fit.update(_shape_json(seg, sh, u))
     from bladerecon.core.sections.segmentation import NONPLANAR_LIMIT
     projection = "span_normal" if seg.frame.flatness > NONPLANAR_LIMIT else "section_plane"
     gauges = {"projection": projection, "thickness_at_chord_normal": thickness_cn, "thickness_at_fraction": frac_cam,
@@ -586,7 +637,7 @@ def measure_section(seg: Segmentation, offsets: tuple[float, ...] = (), n_points
               "centroid": seg.lift(centroid)[0].tolist(), "le_camber": ends_camber[0], "te_camber": ends_camber[1]}
     if projection == "span_normal":
         from bladerecon.core.sections.meridional_frame import measure_meridional
-        block, why = measure_meridional(seg, measure_section, axis, axis_point, strict_radius)
+        block, why = measure_meridional(seg, measure_section, axis, axis_point, strict_radius, fractions)
         gauges["meridional"] = block
         if why:
             warnings.append(why)
