@@ -39,11 +39,13 @@ def add_parser(sub) -> None:
     d.add_argument("--plan", metavar="PLAN.toml",
                    help="inspection plan (TOML: profile zones per LE/TE/flanks, parameter limits, fit mode "
                         "incl. the minimax 'zone' fit): adds the pass/fail verdicts; see docs/verdicts.md")
-    d.add_argument("--csv", metavar="FILE", help="write x,y,z,deviation,nx,ny,nz,face per point")
+    d.add_argument("--csv", metavar="FILE", help="write x,y,z,deviation,nx,ny,nz,face per point (a FILE ending in "
+                                                 ".ply: a binary PLY with those properties)")
     d.add_argument("--report", metavar="DIR", help="write report.html with plots and deviations.csv into DIR")
     d.add_argument("--aligned", metavar="FILE",
                    help="with --align: write the measured input moved by the best fit: a STEP of the moved "
-                        "surface when MEASURED is a surface, else a section,x,y,z points CSV")
+                        "surface when MEASURED is a surface, else a section,x,y,z points CSV (a FILE ending in .ply: "
+                        "a binary PLY with a section property)")
     d.add_argument("--force", action="store_true",
                    help="write the report into an existing folder that holds files (files of the report's names "
                         "are replaced, others kept); without it such a folder is refused")
@@ -193,10 +195,17 @@ def _run(args: argparse.Namespace, temps: dict) -> dict:
         summary["compensation"] = compensation
     if nominal_warning:
         summary["nominal"]["warning"] = nominal_warning
-    if args.csv:
+    if args.csv and _is_ply(args.csv):
+        from bladerecon.core.io.scanner import write_ply
+        dev = res.deviation
+        write_ply(temps["csv"], res.points, {"deviation": dev.signed, "nx": dev.normal[:, 0], "ny": dev.normal[:, 1],
+                                             "nz": dev.normal[:, 2], "face": dev.face.astype(np.int32)},
+                  comment=f"signed deviation from {os.path.basename(args.nominal)} (mm, + outside), outward normal, "
+                          "face (0-based)")
+    elif args.csv:
         write_deviation_csv(temps["csv"], res.points, res.deviation)
     if args.aligned:
-        _write_aligned(temps["aligned"], res, surface, section, names)
+        _write_aligned(temps["aligned"], res, surface, section, names, ply=_is_ply(args.aligned))
         summary["aligned"] = args.aligned
     t_done = time.perf_counter()
     summary["seconds"] = {"read": t_read - t0, "align": res.seconds["align"], "measure": res.seconds["measure"],
@@ -284,7 +293,7 @@ def _section_table(args, res, nominal) -> dict:
         return {"error": str(err)}
 
 
-def _write_aligned(path: str, res, surface, section, names) -> str:
+def _write_aligned(path: str, res, surface, section, names, ply: bool = False) -> str:
     """The measured input moved by the alignment: the surface exactly (its poles moved), or
     the points with their section labels, written to ``path`` (the command's temporary)."""
     if surface is not None:
@@ -297,8 +306,16 @@ def _write_aligned(path: str, res, surface, section, names) -> str:
     from bladerecon.core.io.readers import write_points_csv
 
     labels = section if section is not None else np.zeros(len(res.points), dtype=int)
-    write_points_csv(path, res.points, labels, names or None)
+    if ply:
+        from bladerecon.core.io.scanner import write_ply
+        write_ply(path, res.points, section=labels, section_names=names or None, comment="aligned by the best fit (mm)")
+    else:
+        write_points_csv(path, res.points, labels, names or None)
     return path
+
+
+def _is_ply(path: str) -> bool:
+    return str(path).lower().endswith(".ply")
 
 
 def _surface_points(path: str):

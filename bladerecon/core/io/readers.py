@@ -249,12 +249,15 @@ def _scan_point_set(source: str, raw: bytes, require_sections: bool) -> PointSet
     """A PLY or PCD scan (:mod:`bladerecon.core.io.scanner`) as one unlabelled block: a cloud.
     ``line`` holds each point's line (ASCII) or vertex number (binary)."""
     scan = read_scan(source, raw)
-    if require_sections:
+    if require_sections and scan.section is None:
         raise BladeReconError(f"{source}: a {scan.format.split('-')[0].upper()} scan: {_NO_STRUCTURE}")
     n = len(scan.points)
     # its normals as a CSV's named columns: kept where every one is of unit length (a scanner may
     # write zeros or unnormalised vectors where it has none), else left out
     normals = None if scan.normals is None else _unit_normals(source, scan.index, scan.normals.T, loose=True)
+    if scan.section is not None:          # a PLY with a section property (ours: --aligned FILE.ply)
+        return PointSet(np.ascontiguousarray(scan.points), scan.section, np.asarray(scan.index), scan.section_names,
+                        source, scan.format, structured=True, normals=normals)
     return PointSet(np.ascontiguousarray(scan.points), np.zeros(n, dtype=int), np.asarray(scan.index), ("1",),
                     source, scan.format, structured=False, normals=normals, left_out=scan.left_out)
 

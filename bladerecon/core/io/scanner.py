@@ -8,8 +8,10 @@ recognised by content (:func:`sniff`: a PLY starts with the line ``ply``; a PCD 
 points in a few hundredths of a second.
 
 What is read: ``x y z`` (any numeric type, as float64 mm) and, when present, the normals
-(``nx ny nz`` in PLY, ``normal_x normal_y normal_z`` in PCD). Other properties (colour,
-intensity, curvature, faces) are skipped. A PCD point whose x, y or z is NaN (an organised
+(``nx ny nz`` in PLY, ``normal_x normal_y normal_z`` in PCD), and a PLY's integer ``section``
+property with its ``comment section K NAME`` lines (what :func:`write_ply` writes for points
+in sections): the points are then labelled sections. Other properties (colour, intensity,
+curvature, faces) are skipped. A PCD point whose x, y or z is NaN (an organised
 scan's empty pixel) is left out, and :attr:`Scan.left_out` counts it.
 
 Every way a file can be wrong is a one-line :class:`BladeReconError` naming the file and the
@@ -33,7 +35,7 @@ import numpy as np
 from bladerecon.core.errors import BladeReconError
 from bladerecon.core.io.outputs import shown
 
-__all__ = ["Scan", "sniff", "read_scan"]
+__all__ = ["Scan", "sniff", "read_scan", "write_ply"]
 
 _HEADER_LIMIT = 1 << 16          # a header longer than this is no header
 _PLY_TYPES = {"char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1", "short": "i2", "int16": "i2",
@@ -54,6 +56,8 @@ class Scan:
     index: np.ndarray
     format: str
     left_out: int = 0
+    section: np.ndarray | None = None          # 0-based labels: an integer ``section`` property (our writer's)
+    section_names: tuple[str, ...] = ()        # from ``comment section K NAME`` lines, else K
 
 
 def sniff(raw: bytes) -> str | None:
@@ -110,12 +114,16 @@ class _Element:
         return any(isinstance(t, tuple) for _, t in self.props)
 
 
-def _ply_header(source: str, raw: bytes) -> tuple[str, list[_Element], int, int]:
+def _ply_header(source: str, raw: bytes) -> tuple[str, list[_Element], int, int, dict]:
+    """Format, elements, the body's offset, the header's line count and the section names of its
+    ``comment section K NAME`` lines (K -> NAME)."""
     lines, body = _header_lines(source, raw, "PLY", "end_header")
-    fmt, elements = None, []
+    fmt, elements, named = None, [], {}
     for no, text in enumerate(lines[1:-1], 2):
         words = text.split()
         if not words or words[0] in ("comment", "obj_info"):
+            if len(words) >= 4 and words[:2] == ["comment", "section"] and words[2].isdigit():
+                named[int(words[2])] = text.split(None, 3)[3].strip()
             continue
         if words[0] == "format":
             if len(words) != 3 or words[1] not in ("ascii", "binary_little_endian", "binary_big_endian"):
@@ -144,7 +152,7 @@ def _ply_header(source: str, raw: bytes) -> tuple[str, list[_Element], int, int]
             raise _bad_header(source, no, text, "not a PLY header line")
     if fmt is None:
         raise BladeReconError(f"{source}: PLY header without a 'format' line")
-    return fmt, elements, body, len(lines)
+    return fmt, elements, body, len(lines), named
 
 
 def _vertex_element(source: str, elements: list[_Element]) -> tuple[int, _Element]:
@@ -188,8 +196,56 @@ def _columns(names: list[str], table, kind: str):
     return P, N
 
 
+def _sections(names: list[str], table, types: dict, named: dict) -> tuple[np.ndarray | None, tuple[str, ...]]:
+    """A PLY's integer ``section`` property as 0-based labels in order of first appearance, and
+    their names (``named``: the header's ``comment section K NAME``, else K); (None, ()) without one."""
+    if "section" not in names or types.get("section", "f8")[0] not in "iu":
+        return None, ()
+    raw = np.asarray(table["section"], dtype=np.int64)
+    keys, first, labels = np.unique(raw, return_index=True, return_inverse=True)
+    order = np.argsort(first)                     # sections in order of first appearance
+    rank = np.empty_like(order)
+    rank[order] = np.arange(len(order))
+    return rank[labels], tuple(named.get(int(k), str(int(k))) for k in keys[order])
+
+
+def write_ply(path: str, points: np.ndarray, columns: dict | None = None, section: np.ndarray | None = None,
+              section_names=None, comment: str = "") -> None:
+    """Points (N, 3) as a binary little-endian PLY at ``path`` (written in place: the caller's
+    temporary), with per-point ``columns`` (name -> (N,) array: doubles, or ``int`` for integer
+    arrays) and, for points in sections, an ``int section`` property (0-based) with a
+    ``comment section K NAME`` line per section, which :func:`read_scan` reads back."""
+    P = np.asarray(points, dtype="<f8")
+    n = len(P)
+    fields = [("x", "<f8"), ("y", "<f8"), ("z", "<f8")]
+    data = {"x": P[:, 0], "y": P[:, 1], "z": P[:, 2]}
+    for name, values in (columns or {}).items():
+        v = np.asarray(values)
+        kind = "<i4" if v.dtype.kind in "iub" else "<f8"
+        fields.append((name, kind))
+        data[name] = v
+    if section is not None:
+        fields.append(("section", "<i4"))
+        data["section"] = np.asarray(section)
+    table = np.empty(n, dtype=fields)
+    for name, _ in fields:
+        table[name] = data[name]
+    head = ["ply", "format binary_little_endian 1.0", "comment written by BladeRecon (mm)"]
+    if comment:
+        head.append(f"comment {comment}")
+    if section is not None:
+        labels = section_names or [str(k) for k in range(int(np.max(section, initial=-1)) + 1)]
+        head += [f"comment section {k} {' '.join(str(name).split())}" for k, name in enumerate(labels)]
+    head.append(f"element vertex {n}")
+    head += [f"property {'int' if t == '<i4' else 'double'} {name}" for name, t in fields]
+    head.append("end_header")
+    with open(path, "wb") as fh:
+        fh.write(("\n".join(head) + "\n").encode("utf-8"))
+        fh.write(table.tobytes())
+
+
 def _read_ply(source: str, raw: bytes) -> Scan:
-    fmt, elements, body, header_lines = _ply_header(source, raw)
+    fmt, elements, body, header_lines, named = _ply_header(source, raw)
     k, v = _vertex_element(source, elements)
     names = [n for n, _ in v.props]
     _dtype(source, [(n, "f8") for n in names], "<", f"line {v.line}")       # a coordinate given twice: refused
@@ -212,7 +268,9 @@ def _read_ply(source: str, raw: bytes) -> Scan:
             "vertices): the file was not written to the end")
     table = np.frombuffer(raw, dtype=dtype, count=v.count, offset=start)
     P, N = _columns(names, table, "ply")
-    return _finite(source, Scan(P, N, np.arange(1, v.count + 1), "ply-binary"), "vertex")
+    sec, sec_names = _sections(names, table, dict(v.props), named)
+    return _finite(source, Scan(P, N, np.arange(1, v.count + 1), "ply-binary", section=sec, section_names=sec_names),
+                   "vertex")
 
 
 def _ascii_rows(source: str, raw: bytes, body: int, header_lines: int, skip: int, count: int, ncol: int,
