@@ -127,6 +127,26 @@ def _bending(span):
     return p * (p - 1) * r * (r - 1) * span ** e / e
 
 
+def _flank(xs, ys, fit):
+    """The flank graph of one joint fitted to its points ``(xs, ys)`` (tangent, normal
+    coordinates) of ``fit`` True: its values ``f`` and slopes ``df`` at every point, and its
+    bending energy (None when too few points to fit: the flank is then the tangent line)."""
+    B = xs[:, None] ** POWERS[None, :]
+    k = min(POWERS.size, max(int(fit.sum()) - 1, 0))
+    coef = np.zeros(POWERS.size)
+    bent = None
+    if k > 0:
+        # least squares plus a little bending energy: where a left-out run leaves the
+        # flank unsupported next to its joint, the fairest flank bridges it (not a wild one)
+        Bf = B[fit][:, :k]
+        M = BENDING * _bending(max(float(xs.max()), 1e-9))[:k, :k]
+        coef[:k] = np.linalg.lstsq(Bf.T @ Bf + M, Bf.T @ ys[fit], rcond=None)[0]
+        bent = float(coef[:k] @ M @ coef[:k])
+    f = B @ coef
+    df = (POWERS[None, :] * xs[:, None] ** (POWERS[None, :] - 1)) @ coef
+    return f, df, bent
+
+
 def _model(q, w, g, sense, tip, with_feet=False, energy=None):
     """Signed in-plane distances (mm) of all points to the edge model with geometry ``g``,
     the flank coefficients fitted to the points of weight > 0; with ``with_feet`` also the
@@ -153,20 +173,9 @@ def _model(q, w, g, sense, tip, with_feet=False, energy=None):
         if not sel.any():
             continue
         xs, ys = x[sel, j], y[sel, j]
-        B = xs[:, None] ** POWERS[None, :]
-        fit = w[sel] > 0
-        k = min(POWERS.size, max(int(fit.sum()) - 1, 0))
-        coef = np.zeros(POWERS.size)
-        if k > 0:
-            # least squares plus a little bending energy: where a left-out run leaves the
-            # flank unsupported next to its joint, the fairest flank bridges it (not a wild one)
-            Bf = B[fit][:, :k]
-            M = BENDING * _bending(max(float(xs.max()), 1e-9))[:k, :k]
-            coef[:k] = np.linalg.lstsq(Bf.T @ Bf + M, Bf.T @ ys[fit], rcond=None)[0]
-            if energy is not None:
-                energy[j] = float(coef[:k] @ M @ coef[:k])
-        f = B @ coef
-        df = (POWERS[None, :] * xs[:, None] ** (POWERS[None, :] - 1)) @ coef
+        f, df, bent = _flank(xs, ys, w[sel] > 0)
+        if energy is not None and bent is not None:
+            energy[j] = bent
         res[sel] = (ys - f) / np.sqrt(1.0 + df * df)
         if with_feet:
             feet[sel] = t0[j] + xs[:, None] * tan[j] + f[:, None] * nor[j]
@@ -210,6 +219,46 @@ def _cost(q, w, g, sense, tip):
     return float(d @ d)
 
 
+def _costs(q, w, G, sense, tip):
+    """:func:`_cost` of every geometry of ``G`` (T, 5), the same numbers bit for bit: the
+    frames, the points' coordinates and pieces of all trials at once (elementwise, as
+    :func:`_model` does them), then each trial's flank fit by :func:`_flank` (its small
+    least squares is ill-conditioned where a trial joint leaves a long flank, so another
+    solver or summation order would move the sums of squares by far more than rounding).
+    A flank whose joint is the same in every trial (a scan turns one joint) is fitted once."""
+    G = np.asarray(G, float)
+    T, m = G.shape[0], q.shape[0]
+    phi = G[:, 3:5]
+    e = np.stack([np.cos(phi), np.sin(phi)], axis=2)                                   # (T, 2 joints, 2)
+    tan = np.stack([-e[:, :, 1], e[:, :, 0]], axis=2) * (sense * np.array([-1.0, 1.0]))[:, None]
+    t0 = G[:, None, :2] + G[:, 2, None, None] * e
+    rel = q[None, :, None, :] - t0[:, None, :, :]                                      # (T, m, 2, 2)
+    x = np.einsum("tmjk,tjk->tmj", rel, tan)
+    y = np.einsum("tmjk,tjk->tmj", rel, e)
+    order = np.arange(m)
+    v = q[None, :, :] - G[:, None, :2]
+    res = np.sqrt(np.einsum("tij,tij->ti", v, v)) - G[:, 2, None]                      # (T, m)
+    counted = w > 0
+    for j, before in ((0, order < tip), (1, order > tip)):
+        on = before[None, :] & (x[:, :, j] > 0.0)                                      # (T, m) this flank's points
+        same = (G[:, [0, 1, 2, 3 + j]] == G[0, [0, 1, 2, 3 + j]]).all()
+        for t in range(1 if same else T):
+            sel = on[t]
+            if not sel.any():
+                continue
+            xs, ys = x[t, sel, j], y[t, sel, j]
+            f, df, _ = _flank(xs, ys, counted[sel])
+            if same:
+                res[:, sel] = (ys - f) / np.sqrt(1.0 + df * df)
+            else:
+                res[t, sel] = (ys - f) / np.sqrt(1.0 + df * df)
+    out = np.empty(T)
+    for t in range(T):
+        d = res[t][counted]
+        out[t] = d @ d
+    return out
+
+
 def _start(q, w, sense, tip, tolerance, steps=48):
     """Start of the edge model. For the circles through three consecutive points near the
     tip (the tip itself may end the arc where the points are uneven), grown by
@@ -232,7 +281,7 @@ def _start(q, w, sense, tip, tolerance, steps=48):
                 a0 = ang(c, lo if k == 0 else hi)
                 trial = np.repeat(g[None, :], steps, axis=0)
                 trial[:, 3 + k] = a0 + (1.0 if k else -1.0) * sense * np.linspace(-0.5, 0.5 * np.pi, steps)
-                g = trial[int(np.argmin([_cost(q, w, t, sense, tip) for t in trial]))]
+                g = trial[int(np.argmin(_costs(q, w, trial, sense, tip)))]
         g = _fit(q, w, g, sense, tip)
         d = np.abs(_model(q, w, g, sense, tip)[w > 0])
         k = (-int((d < tolerance).sum()), float(d @ d))
