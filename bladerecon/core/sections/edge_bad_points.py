@@ -110,21 +110,29 @@ def _frames(g, sense):
     """Joint points (2, 2), tangents away from the arc (2, 2) and outward normals (2, 2) of
     the two joints of geometry ``g = (cx, cy, r, phi1, phi2)``."""
     phi = g[3:5]
-    e = np.stack([np.cos(phi), np.sin(phi)], axis=1)
-    tangent = np.stack([-e[:, 1], e[:, 0]], axis=1) * (sense * np.array([-1.0, 1.0]))[:, None]
+    e = np.empty((2, 2))            # filled in place, not np.stack: _model calls this ~10⁴ times a section
+    e[:, 0], e[:, 1] = np.cos(phi), np.sin(phi)
+    tangent = np.empty((2, 2))
+    tangent[:, 0], tangent[:, 1] = -e[:, 1], e[:, 0]
+    tangent *= sense * _FLIP
     return g[:2] + g[2] * e, tangent, e
+
+
+_FLIP = np.array([[-1.0], [1.0]])           # the first joint's tangent turns against the loop's sense
 
 
 POWERS = np.array([2, 3, 4])     # the flank graph over the joint's tangent: a x² + b x³ + c x⁴
 BENDING = 1e-12                  # mm³: weight of ∫y''² against the squared distances (a flank bending 1/(10 mm) over 3 mm costs (0.2 µm)², a wild one bridging a left-out run (5 µm)² or more)
 
 
+_P, _R = POWERS[:, None], POWERS[None, :]
+_BENDING_FACTOR = _P * (_P - 1) * _R * (_R - 1)     # integers: the p (p-1) r (r-1) of _bending, exact
+_BENDING_POWER = _P + _R - 3
+
+
 def _bending(span):
     """∫_0^span y''² dx = cᵀ M c for y = Σ c_p x^p, p in POWERS (seed 004: small strain energy)."""
-    p = POWERS[:, None]
-    r = POWERS[None, :]
-    e = p + r - 3
-    return p * (p - 1) * r * (r - 1) * span ** e / e
+    return _BENDING_FACTOR * span ** _BENDING_POWER / _BENDING_POWER
 
 
 def _flank(xs, ys, fit):
