@@ -195,3 +195,32 @@ def test_a_run_over_the_le_apex_is_found(run, displacement):
     assert np.flatnonzero(s.bad).tolist() == sorted(idx)
     assert np.flatnonzero(s.by_edge_model).tolist() == sorted(idx)
     assert np.abs(s.faired[idx] - P[idx]).max() < 1e-3             # back on the true edge within 1 µm
+
+
+def test_the_start_scans_cost_every_trial_as_the_model_does():
+    """The start's joint scans evaluate all their trial geometries at once (``_costs``); each
+    sum of squares must be the one ``_cost`` (``_model``) gives that trial alone, bit for bit:
+    the scan keeps the first smallest, and a trial whose joint leaves a long flank has an
+    ill-conditioned flank fit, where another solver or summation order moves the sum by far
+    more than rounding (1e-7 relative, measured), enough to change the start chosen."""
+    from bladerecon.core.sections import edge_bad_points as E
+
+    points, _, _ = section_with_runs(0.5, 7, spacing="random", noise=0.002)
+    o, axes, q = E.section_plane(points)
+    rng = np.random.default_rng(7)
+    for end in (0, 1):
+        z = q[E.edge_zone(q, end)]
+        tip = int(np.argmin(z[:, 0]) if end == 0 else np.argmax(z[:, 0]))
+        area2 = np.sum(q[:, 0] * np.roll(q[:, 1], -1) - np.roll(q[:, 0], -1) * q[:, 1])
+        sense = 1.0 if area2 > 0 else -1.0
+        w = np.ones(len(z))
+        w[tip + 1:tip + 4] = 0.0                      # a left-out run
+        c, r, lo, hi = E._grown(z, w, tip - 1, tip + 1, 0.0015)
+        g = np.array([c[0], c[1], r, np.arctan2(*(z[lo] - c)[::-1]), np.arctan2(*(z[hi] - c)[::-1])])
+        for k in (0, 1):                              # a scan turns one joint, as _start's do
+            trial = np.repeat(g[None, :], 48, axis=0)
+            trial[:, 3 + k] += (1.0 if k else -1.0) * sense * np.linspace(-0.5, 0.5 * np.pi, 48)
+            expected = [E._cost(z, w, t, sense, tip) for t in trial]
+            assert np.array_equal(E._costs(z, w, trial, sense, tip), expected)
+        trial = g + rng.normal(0.0, [0.002, 0.002, 0.002, 0.3, 0.3], (24, 5))     # and all of it at random
+        assert np.array_equal(E._costs(z, w, trial, sense, tip), [E._cost(z, w, t, sense, tip) for t in trial])
