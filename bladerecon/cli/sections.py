@@ -101,7 +101,8 @@ def add_parser(sub) -> None:
     p = sub.add_parser("sections", help="section parameters (chord, stagger, thickness, LE/TE radius, angles)",
                        description="Segment every section (LE, TE, suction, pressure) and measure its "
                                    "parameters; lengths in mm, angles in degrees.")
-    p.add_argument("input", help="point file with sections (any format 'reconstruct' reads)")
+    p.add_argument("input", help="point file with sections (any format 'reconstruct' reads), or a whole-blade "
+                                 "cloud: cut into sections as reconstruct cuts it")
     p.add_argument("--nominal", help="nominal: STEP/IGES/BREP/FCStd (cut in each section's plane) or a section file")
     p.add_argument("--plots", metavar="DIR", help="write section_NN.png per section (segmentation coloured)")
     p.add_argument("--flow", type=flow_direction, metavar="X,Y,Z",
@@ -113,6 +114,10 @@ def add_parser(sub) -> None:
     p.add_argument("--axis-point", type=axis_point, metavar="X,Y,Z",
                    help="a point on the machine axis (mm, default 0,0,0)")
     add_compensation_options(p)
+    from bladerecon.cli.autocloud import add_options as add_cloud_options
+    add_cloud_options(p)
+    p.add_argument("--cloud-scale", type=positive(1e9, ""), default=1.0, metavar="F",
+                   help="a cloud's coordinates times F (1000 for a file in metres)")
     p.add_argument("--offsets", default="", metavar="MM,...", help="thickness at these distances from LE and TE")
     p.add_argument("--fractions", default="", metavar="F,...",
                    help="thickness at these chord fractions (0 < F < 1), camber-normal and chord-normal")
@@ -147,12 +152,23 @@ def _say(args, msg: str) -> None:
         print(f"bladerecon: {escaped(msg)}", file=sys.stderr, flush=True)
 
 
+_CLOUD_OPTIONS = ("cloud_scale", "span_range", "span_axis", "sections", "blade_kind")
+
+
 def _read_sections(path: str, args=None):
-    """Ordered sections of a point file; with ``args``, compensated as its options say."""
+    """Ordered sections of a point file; with ``args``, compensated as its options say. With
+    ``args``, a file with no section structure is a whole-blade cloud: cut into sections as
+    ``reconstruct`` cuts it (:func:`_cloud_sections`)."""
     from bladerecon.core.io.readers import read_points
     from bladerecon.core.sections.ordering import build_sections
-    ps = read_points(path, memory_limit=getattr(args, "memory_limit", None))
+    ps = read_points(path, require_sections=args is None, memory_limit=getattr(args, "memory_limit", None))
     check_coordinates(ps.points, ps.line, path)
+    own = [o for o in _CLOUD_OPTIONS if args is not None and getattr(args, o, None) not in (None, 1.0, "auto")]
+    if args is not None and not ps.structured:
+        return _cloud_sections(args, ps)
+    if own:
+        raise BladeReconError(f"--{own[0].replace('_', '-')} applies to an unordered cloud; "
+                              f"{path} holds {len(ps.section_names)} sections")
     ss = build_sections(ps)
     if args is not None:
         ss = compensate(args, ss)
@@ -261,6 +277,8 @@ def _run(args, offsets, throat, plots, fractions=()) -> list:
     params = [measure_section(s, offsets, strict_radius=not args.lenient, fractions=fractions, **rotor) for s in segs]
     out = [{**p.as_dict(), "le_rule": blade.le_rule, "stacking": st}
            for p, st in zip(params, stacking(params, axis, flow))]
+    for o, cut in zip(out, getattr(args, "_cuts", None) or ()):
+        o["cut"] = cut
     if blade.warning:
         for o in out:
             o["warnings"] = [blade.warning, *o["warnings"]]
@@ -281,6 +299,46 @@ def _run(args, offsets, throat, plots, fractions=()) -> list:
         for s, p, ns in zip(segs, params, nsegs):
             plot_section(os.path.join(plots, f"section_{s.index:02d}.png"), s, p, ns)
     return out
+
+
+def _cloud_sections(args, ps):
+    """A whole-blade cloud cut into sections with no slicing options (issue 25), as
+    ``reconstruct CLOUD`` cuts it (:func:`bladerecon.core.sections.blade_cloud.cut_sections`):
+    span direction, airfoil span (fillet and cap left out), planes or, for a radial rotor,
+    stream surfaces; each section's ``cut`` in the JSON says where. A radial rotor's sections are
+    measured in m'-theta about ``--rotor-axis`` unless ``--axis`` is given."""
+    from bladerecon.cli.autocloud import MIN_CLOUD_POINTS, _span_range
+    from bladerecon.core.sections.blade_cloud import cut_sections, section_set
+
+    P = np.asarray(ps.points, float) * args.cloud_scale
+    if len(P) < MIN_CLOUD_POINTS:
+        raise BladeReconError(
+            f"{args.input}: {len(P)} points with no section labels: too few to cut sections from automatically "
+            f"(a whole-blade cloud needs at least {MIN_CLOUD_POINTS}); label the sections (a 'section' column, or "
+            "blank lines between blocks)")
+    if args.sections is not None and not 2 <= args.sections <= 200:
+        raise BladeReconError(f"--sections {args.sections}: give 2 to 200")
+    axis = None
+    if args.span_axis is not None:
+        axis = np.eye(3)["xyz".index(args.span_axis[-1])] * (-1.0 if args.span_axis.startswith("-") else 1.0)
+    rng = _span_range(args.span_range) if args.span_range is not None else None
+    rotor = np.eye(3)["xyz".index(args.rotor_axis)]
+    cs = cut_sections(P, args.blade_kind, rng, args.sections, axis, rotor)
+    ss = compensate(args, section_set(cs, np.asarray(ps.line), args.input))
+    radial = cs.info.get("kind") == "stream-surfaces"
+    if radial and args.axis is None:
+        args.axis = rotor
+    kind = "stream surfaces" if radial else "planes"
+    span = cs.info.get("airfoil_span_mm")
+    _say(args, f"a cloud of {len(P)} points: {len(ss.sections)} sections on {kind}"
+               + (f", airfoil span {span[0]:.1f}–{span[1]:.1f} mm along the span axis" if span else "")
+               + f" ({cs.info.get('kind_reason', cs.info.get('kind'))})")
+    args._cuts = [{"kind": "stream surface" if radial else "plane", "position": float(p),
+                   "position_unit": "span fraction hub 0 .. shroud 1" if radial else "mm along the span axis",
+                   "axis": np.asarray(cs.axis, float).tolist(),     # planes: the span axis; stream surfaces: the rotor's
+                   "points": int(len(sec.points))}
+                  for p, sec in zip(cs.positions, ss.sections)]
+    return [sec.points for sec in ss.sections], ss.span_axis, False
 
 
 def _nominal_warning(args) -> None:

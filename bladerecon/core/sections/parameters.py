@@ -568,7 +568,7 @@ def measure_section(seg: Segmentation, offsets: tuple[float, ...] = (), n_points
                          "flank_rms": None if not np.isfinite(ec.flank_rms) else ec.flank_rms})
             shape = {"shape": "circle"}
             if ec.arc_points >= 5 and np.isfinite(ec.flank_rms) and ec.rms > 4 * ec.flank_rms + NOT_ROUND:
-                shape = edge_shape(seg.points2d, ec.centre, ec.radius, ec.axis, ec.flank_rms, NOT_ROUND)
+                shape = edge_shape(seg.points2d, ec.centre, ec.radius, ec.axis, ec.flank_rms, NOT_ROUND, ec.rms)
                 warnings.append(f"section {seg.index}: the {name} is not a circle: its arc points scatter "
                                 f"{ec.rms * 1000:.1f} µm rms about the fitted circle against {ec.flank_rms * 1000:.1f} µm "
                                 f"on the flanks ({_shape_words(shape)})")
