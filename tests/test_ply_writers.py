@@ -8,6 +8,7 @@ from __future__ import annotations
 import json
 
 import numpy as np
+import pytest
 
 from cli_run import ROOT, run
 
@@ -91,3 +92,19 @@ def test_a_ply_whose_section_property_is_not_an_integer_is_a_cloud(tmp_path):
     ps = read_points(tmp_path / "i.ply")
     assert ps.structured and ps.section_names == ("c", "a", "b")       # in order of first appearance
     assert ps.section.tolist() == [0] * 20 + [1] * 20 + [2] * 10
+
+
+def test_section_names_in_utf8_and_labels_checked(tmp_path):
+    from bladerecon.core.io.readers import read_points
+    from bladerecon.core.io.scanner import write_ply
+
+    P = np.arange(60, dtype=float).reshape(20, 3)
+    write_ply(tmp_path / "u.ply", P, section=np.repeat([0, 1], 10), section_names=["hub é", "tip  ∅ 1"])
+    assert read_points(tmp_path / "u.ply").section_names == ("hub é", "tip ∅ 1")
+    write_ply(tmp_path / "n.ply", P, section=np.repeat([0, 7], 10))           # unnamed: one comment a label used
+    assert read_points(tmp_path / "n.ply").section_names == ("0", "7")
+    for bad in (np.repeat([0, 2 ** 31 + 5], 10), np.repeat([-1, 0], 10), np.linspace(0, 1, 20)):
+        with pytest.raises(ValueError):
+            write_ply(tmp_path / "b.ply", P, section=bad)
+    with pytest.raises(ValueError, match="label 2 but 2 names"):
+        write_ply(tmp_path / "b.ply", P, section=np.repeat([0, 2], 10), section_names=["a", "b"])

@@ -8,8 +8,8 @@ recognised by content (:func:`sniff`: a PLY starts with the line ``ply``; a PCD 
 points in a few hundredths of a second.
 
 What is read: ``x y z`` (any numeric type, as float64 mm) and, when present, the normals
-(``nx ny nz`` in PLY, ``normal_x normal_y normal_z`` in PCD), and a PLY's integer ``section``
-property with its ``comment section K NAME`` lines (what :func:`write_ply` writes for points
+(``nx ny nz`` in PLY, ``normal_x normal_y normal_z`` in PCD), and a binary PLY's integer
+``section`` property with its ``comment section K NAME`` lines (what :func:`write_ply` writes for points
 in sections): the points are then labelled sections. Other properties (colour, intensity,
 curvature, faces) are skipped. A PCD point whose x, y or z is NaN (an organised
 scan's empty pixel) is left out, and :attr:`Scan.left_out` counts it.
@@ -123,7 +123,8 @@ def _ply_header(source: str, raw: bytes) -> tuple[str, list[_Element], int, int,
         words = text.split()
         if not words or words[0] in ("comment", "obj_info"):
             if len(words) >= 4 and words[:2] == ["comment", "section"] and words[2].isdigit():
-                named[int(words[2])] = text.split(None, 3)[3].strip()
+                # the header is read as Latin-1 (any byte a character); our writer puts UTF-8 names
+                named[int(words[2])] = text.split(None, 3)[3].strip().encode("latin-1").decode("utf-8", "replace")
             continue
         if words[0] == "format":
             if len(words) != 3 or words[1] not in ("ascii", "binary_little_endian", "binary_big_endian"):
@@ -213,8 +214,9 @@ def write_ply(path: str, points: np.ndarray, columns: dict | None = None, sectio
               section_names=None, comment: str = "") -> None:
     """Points (N, 3) as a binary little-endian PLY at ``path`` (written in place: the caller's
     temporary), with per-point ``columns`` (name -> (N,) array: doubles, or ``int`` for integer
-    arrays) and, for points in sections, an ``int section`` property (0-based) with a
-    ``comment section K NAME`` line per section, which :func:`read_scan` reads back."""
+    arrays) and, for points in sections, an ``int section`` property (labels 0 <= K < 2**31,
+    ``section_names[K]`` their names) with a ``comment section K NAME`` line per label used (names
+    in UTF-8, their whitespace runs made single spaces), which :func:`read_scan` reads back."""
     P = np.asarray(points, dtype="<f8")
     n = len(P)
     fields = [("x", "<f8"), ("y", "<f8"), ("z", "<f8")]
@@ -225,8 +227,13 @@ def write_ply(path: str, points: np.ndarray, columns: dict | None = None, sectio
         fields.append((name, kind))
         data[name] = v
     if section is not None:
+        section = np.asarray(section)
+        if section.shape != (n,) or section.dtype.kind not in "iu" or (n and (section.min() < 0 or section.max() >= 2 ** 31)):
+            raise ValueError("section: one label 0 <= k < 2**31 per point")
+        if section_names is not None and n and section.max() >= len(section_names):
+            raise ValueError(f"section label {int(section.max())} but {len(section_names)} names")
         fields.append(("section", "<i4"))
-        data["section"] = np.asarray(section)
+        data["section"] = section
     table = np.empty(n, dtype=fields)
     for name, _ in fields:
         table[name] = data[name]
@@ -234,8 +241,9 @@ def write_ply(path: str, points: np.ndarray, columns: dict | None = None, sectio
     if comment:
         head.append(f"comment {comment}")
     if section is not None:
-        labels = section_names or [str(k) for k in range(int(np.max(section, initial=-1)) + 1)]
-        head += [f"comment section {k} {' '.join(str(name).split())}" for k, name in enumerate(labels)]
+        used = np.unique(section).tolist()
+        head += [f"comment section {k} {' '.join(str(section_names[k] if section_names is not None else k).split())}"
+                 for k in used]
     head.append(f"element vertex {n}")
     head += [f"property {'int' if t == '<i4' else 'double'} {name}" for name, t in fields]
     head.append("end_header")

@@ -18,16 +18,16 @@ module says what the edge is instead, in the section plane (mm, degrees):
   leans by ``axis_angle_deg`` from the camber line) and ``b``, fitted by least squares on the
   Sampson distances (the algebraic residual over its gradient: the distance to first order) of
   the points ahead of the ellipse's minor axis, where a designed edge ellipse meets its flanks;
-  the window follows the centre until it stops moving. Its major axis lies within 30° of the
-  camber line (an ellipse whose longer axis runs across it is no designed edge). Reported: ``a``, ``b``, ``a/b``, the
+  the window follows the centre until it stops moving. Its major axis lies within 10° of the
+  camber line (a designed edge ellipse lies along it). Reported: ``a``, ``b``, ``a/b``, the
   radius of curvature at the tip ``b²/a``, the tip (the edge point), the rms distance.
 * otherwise **irregular** (a damaged or worn edge): no figures beyond the circle's.
 
 An edge is called flat when its flat holds at least 3 points over a length of at least one
 circle radius (an elliptic or round tip of radius ρ stays within ``tol`` of a line over only
 2√(2ρ·tol)), else elliptic when the ellipse passes the roundness test the circle failed (rms ≤ 4 ×
-the flanks' rms + 3 µm) with at most half the circle's rms, and its axis along the camber line
-is more than 5 % the longer.
+the flanks' rms + 3 µm) with at most a fifth of the circle's rms, and its axis along the camber
+line is more than 5 % the longer. A flat must also cross the camber line.
 """
 from __future__ import annotations
 
@@ -44,8 +44,11 @@ MIN_ELLIPSE_POINTS = 6
 #: edge distorted by noise or by a slab slid onto its plane fits an ellipse barely better: on a
 #: propeller cloud 5.1 against 5.4 µm, a designed 2.4:1 ellipse 1.9 against 44 µm) and its axes
 #: differ by more than MIN_ELLIPSE_RATIO
-ELLIPSE_GAIN = 0.5
+ELLIPSE_GAIN = 0.2
 MIN_ELLIPSE_RATIO = 1.05
+#: a designed edge ellipse lies along the camber line: one tilted further is no such ellipse (a
+#: tilted one fitted ahead of its minor axis comes out long by 12-35 %, its tilt halved)
+MAX_ELLIPSE_TILT_DEG = 10.0
 #: a flat's curvature times the edge circle's radius must stay below this (a round edge: 1)
 MAX_FLAT_BEND = 0.3
 #: no flat is looked for when the tolerance (3 × the flanks' noise + 1 µm) exceeds this fraction of
@@ -80,7 +83,8 @@ def find_flat(st: np.ndarray, radius: float, tol: float) -> dict | None:
     if tol > MAX_FLAT_TOL * radius:       # so noisy that an arc of the edge's radius passes for a line
         return None
     s_front = float(st[:, 0].min())
-    front = st[st[:, 0] <= s_front + 3.0 * radius]
+    front_index = np.flatnonzero(st[:, 0] <= s_front + 3.0 * radius)
+    front = st[front_index]
     if len(front) < MIN_FLAT_POINTS:
         return None
     # outward normals of the candidate flats: (-cos φ, sin φ), φ the angle from the camber line
@@ -118,31 +122,45 @@ def find_flat(st: np.ndarray, radius: float, tol: float) -> dict | None:
     # parabola through its points) well below the edge circle's
     if k >= 4 and abs(2.0 * np.polyfit(along, (front[sel] - m) @ n, 2)[0]) * radius > MAX_FLAT_BEND:
         return None
+    # across the edge: the flat meets the camber line (a straight flank of a kinked or wedge-shaped
+    # round edge is a supporting line too, beside it)
+    t = front[sel][:, 1]
+    if not t.min() - 2.0 * tol <= 0.0 <= t.max() + 2.0 * tol:
+        return None
     return {"point": m, "direction": d, "normal": n, "points": k, "rms": rms, "length": length,
-            "ends": (m + along.min() * d, m + along.max() * d)}
+            "ends": (m + along.min() * d, m + along.max() * d), "index": front_index[sel]}
 
 
 def _flat_width(st: np.ndarray, flat: dict, radius: float) -> tuple[float | None, np.ndarray]:
-    """Width of the flat between the flanks' lines (each fitted to its points one to three radii
-    behind the flat, on its side of the camber line) and the midpoint between the two corners; the measured ends' midpoint and
-    None when a flank has fewer than 3 points there."""
-    m, d, n = flat["point"], flat["direction"], flat["normal"]
-    depth = (m - st) @ n                                  # behind the flat, > 0
-    across = st[:, 1] - m[1]                              # the side: across the camber line (a tilted
-    # flat's own direction would put a far point of one flank on the other side)
+    """Width of the flat between the flanks' lines and the midpoint between the two corners; the
+    measured ends' midpoint and None when a flank has fewer than 3 points there. Each flank's
+    points are those met walking along the loop away from the flat's ends, one to three radii
+    behind it (a flat cut far from square leaves one flank on both sides of the camber line)."""
+    m, n = flat["point"], flat["normal"]
+    npts = len(st)
+    idx = np.sort(flat["index"])
+    gap = np.diff(np.r_[idx, idx[0] + npts])          # the flat is one run of the loop: it ends before its largest gap
+    k = int(np.argmax(gap))
+    ends = (int(idx[(k + 1) % len(idx)]), int(idx[k]))
+    fallback = None, 0.5 * (flat["ends"][0] + flat["ends"][1])
     corners = []
-    for side in (-1.0, 1.0):
-        pick = (depth >= radius) & (depth <= 3.0 * radius) & (np.sign(across) == side)
-        if pick.sum() < 3:
-            return None, 0.5 * (flat["ends"][0] + flat["ends"][1])
+    for start, step in zip(ends, (-1, 1)):
+        walk = (start + step * np.arange(1, npts // 2)) % npts
+        depth = (m - st[walk]) @ n                        # behind the flat, > 0
+        deep = np.flatnonzero(depth > 3.0 * radius)
+        if deep.size:
+            walk, depth = walk[:deep[0]], depth[:deep[0]]
+        pick = walk[depth >= radius]
+        if len(pick) < 3:
+            return fallback
         p0, fd, _ = _tls_line(st[pick])
         den = fd @ n
         if abs(den) < 1e-9:                               # a flank parallel to the flat: no corner
-            return None, 0.5 * (flat["ends"][0] + flat["ends"][1])
+            return fallback
         corners.append(p0 + ((m - p0) @ n / den) * fd)
     width = float(np.linalg.norm(corners[1] - corners[0]))
-    if not flat["length"] <= width <= 4.0 * radius:    # flank lines that do not close on the flat
-        return None, 0.5 * (flat["ends"][0] + flat["ends"][1])
+    if not 0.8 * flat["length"] <= width <= 4.0 * radius:     # flank lines that do not close on the flat
+        return fallback
     return width, 0.5 * (corners[0] + corners[1])
 
 
@@ -206,7 +224,7 @@ def _ellipse_distance(z: np.ndarray, P: np.ndarray) -> np.ndarray:
     return np.where(inside, -dist, dist)
 
 
-def _fit_ellipse_window(P: np.ndarray, z, radius: float, s_front: float, st: np.ndarray | None = None):
+def _fit_ellipse_window(P: np.ndarray, z, radius: float, st: np.ndarray | None = None):
     """Least squares on the Sampson distances of P from z (or from the edge circle); the
     major axis taken as the semi-axis nearer the camber line; None when it is no ellipse."""
     from scipy.optimize import least_squares
@@ -239,10 +257,10 @@ def fit_edge_ellipse(st: np.ndarray, radius: float, max_rounds: int = 12) -> dic
             # flank and the ellipse alike, within the noise): fit the union once and stop
             k = next(i for i, h in enumerate(history) if np.array_equal(sel, h))
             sel = np.logical_or.reduce(history[k:])
-            z = _fit_ellipse_window(st[sel], z, radius, s_front, st)
+            z = _fit_ellipse_window(st[sel], z, radius, st)
             break
         history.append(sel)
-        z = _fit_ellipse_window(st[sel], z, radius, s_front, st)
+        z = _fit_ellipse_window(st[sel], z, radius, st)
         if z is None:
             return None
         new = st[:, 0] <= max(float(z[0]), float(np.sort(st[:, 0])[min(MIN_ELLIPSE_POINTS, len(st)) - 1]))
@@ -259,7 +277,7 @@ def fit_edge_ellipse(st: np.ndarray, radius: float, max_rounds: int = 12) -> dic
     # an edge's ellipse: about as wide as its circle, its tip at the foremost points, its axis
     # near the camber line; not a wild one that a few points of another shape allow
     tip_s = cs - a * np.cos(th)
-    if not (0.3 * radius <= b <= 3.0 * radius and a <= 10.0 * radius and abs(th) <= np.radians(30.0)
+    if not (0.3 * radius <= b <= 3.0 * radius and a <= 10.0 * radius and abs(th) <= np.radians(MAX_ELLIPSE_TILT_DEG)
             and abs(tip_s - s_front) <= 0.5 * radius and abs(ct) <= radius):
         return None
     return {"centre": np.array([cs, ct]), "a": a, "b": b, "angle": th, "points": int(len(P)),
@@ -285,9 +303,7 @@ def edge_shape(points2d: np.ndarray, centre: np.ndarray, radius: float, axis: np
         width, mid = _flat_width(st, flat, radius)
         d2 = flat["direction"][0] * axis + flat["direction"][1] * np.array([-axis[1], axis[0]])
         return {"shape": "flat", "width": width, "length": flat["length"], "points": flat["points"],
-                "rms": flat["rms"], "direction": d2,
-                "angle_deg": float(np.degrees(np.arctan2(flat["normal"][1], -flat["normal"][0]))),
-                "tip": _from_frame(mid, centre, axis)}
+                "rms": flat["rms"], "direction": d2, "tip": _from_frame(mid, centre, axis)}
     ell = fit_edge_ellipse(st, radius)
     if (ell is not None and ell["rms"] <= min(allowed, ELLIPSE_GAIN * circle_rms)
             and ell["a"] / ell["b"] > MIN_ELLIPSE_RATIO):
