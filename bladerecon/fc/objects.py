@@ -324,7 +324,7 @@ def section_parameters(section_set, flow: np.ndarray | None = None) -> SectionPa
     pts = [s.points for s in section_set.sections]
     curves = _fit_sections(pts, choose_method(pts), None)
     blade = segment_blade(pts, section_set.span_axis, not section_set.sections[0].reordered, flow=flow,
-                          canonical=False)
+                          canonical=True)
     measured = [measure_section(seg, strict_radius=False) for seg in blade.sections]
 
     def column(name: str) -> np.ndarray:

@@ -40,12 +40,12 @@ def compare_section_parameters(section_points: list[np.ndarray], span_axis: np.n
     normals = np.array([f.normal for f in frames])
     cuts = cut_sections(name, origins, normals, step, shape=nominal_shape)
     if flow is None:
-        nsegs = segment_blade(cuts, span_axis, canonical=False).sections
-        blade = segment_blade(section_points, span_axis, measured_start, canonical=False,
+        nsegs = segment_blade(cuts, span_axis, canonical=True).sections
+        blade = segment_blade(section_points, span_axis, measured_start, canonical=True,
                               le_points=[s.frame.to_space(s.le)[0] for s in nsegs])
         segs = blade.sections
     else:
-        blade = segment_blade(section_points, span_axis, measured_start, flow=flow, canonical=False)
+        blade = segment_blade(section_points, span_axis, measured_start, flow=flow, canonical=True)
         segs = blade.sections
         nsegs = [segment_section(cut, seg.index, span_axis, le_hint=seg.frame.to_space(seg.le)[0], flow=flow)
                  for seg, cut in zip(segs, cuts)]
