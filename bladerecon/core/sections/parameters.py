@@ -33,6 +33,7 @@ best-fit plane; see there for LE/TE, regions and the frame):
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -259,11 +260,9 @@ def _horner(k: list, x: float) -> float:
     return out
 
 
-def _foot_on_flank(c: np.ndarray, model) -> tuple[float, float]:
-    """Distance from c to the curve y = f(x) and the leverage of the fit at the foot point
-    (Newton on the foot, from x = c_x): the G1 residual's variance is σ² times the leverage."""
-    _, xm, inv, (a, a1, a2, powers) = model
-    c0, cy = float(c[0]), float(c[1])
+def _foot(c0: float, cy: float, model) -> tuple[float, float, float, float]:
+    """:func:`_foot_on_flank` on plain floats: (distance, leverage, foot x, foot y)."""
+    _, xm, inv, (a, a1, a2, _) = model
     cx = c0 - xm
     x = cx
     for _ in range(8):
@@ -274,58 +273,121 @@ def _foot_on_flank(c: np.ndarray, model) -> tuple[float, float]:
         x -= step
         if abs(step) < 1e-13:
             break
-    v = x ** powers
+    # the leverage vᵀ (VᵀV)⁻¹ v, v = (x^deg, ..., x, 1) as np.vander's columns
+    v = [1.0]
+    for _ in range(len(a) - 1):
+        v.append(v[-1] * x)
+    v.reverse()
+    lev = sum(vi * sum(row[j] * vj for j, vj in enumerate(v)) for vi, row in zip(v, _inv_rows(inv)))
     fx, fy = x + xm, _horner(a, x)
-    return float(np.hypot(c0 - fx, cy - fy)), float(v @ inv @ v), np.array([fx, fy])
+    return math.hypot(c0 - fx, cy - fy), lev, fx, fy
+
+
+def _inv_rows(inv) -> list:
+    return inv.tolist() if isinstance(inv, np.ndarray) else inv
+
+
+def _foot_on_flank(c: np.ndarray, model) -> tuple[float, float, np.ndarray]:
+    """Distance from c to the curve y = f(x) and the leverage of the fit at the foot point
+    (Newton on the foot, from x = c_x): the G1 residual's variance is σ² times the leverage."""
+    d, lev, fx, fy = _foot(float(c[0]), float(c[1]), model)
+    return d, lev, np.array([fx, fy])
+
+
+def _solve_spd3(A: list, b: list) -> list | None:
+    """x with A x = b for a symmetric positive definite 3 × 3 A (Cholesky on plain floats);
+    None when A is not numerically positive definite."""
+    (a00, a01, a02), (_, a11, a12), (_, _, a22) = A
+    if not a00 > 0:
+        return None
+    l00 = math.sqrt(a00)
+    l10, l20 = a01 / l00, a02 / l00
+    d1 = a11 - l10 * l10
+    if not d1 > 0:
+        return None
+    l11 = math.sqrt(d1)
+    l21 = (a12 - l20 * l10) / l11
+    d2 = a22 - l20 * l20 - l21 * l21
+    if not d2 > 0:
+        return None
+    l22 = math.sqrt(d2)
+    y0 = b[0] / l00
+    y1 = (b[1] - l10 * y0) / l11
+    y2 = (b[2] - l20 * y0 - l21 * y1) / l22
+    x2 = y2 / l22
+    x1 = (y1 - l21 * x2) / l11
+    x0 = (y0 - l10 * x1 - l20 * x2) / l00
+    return [x0, x1, x2]
 
 
 def _fit_edge_circle(pa: np.ndarray, flanks: list, z: np.ndarray) -> np.ndarray:
     """Levenberg-Marquardt on (cx, cy, r): arc residuals |p − c| − r and the G1 residuals
     (dist(c, flank) − r) / sqrt(leverage); the gradient of a distance to a curve is the unit
-    vector from its foot point (the foot moves along the curve, to first order no change)."""
-    n, m = len(pa), len(pa) + len(flanks)
+    vector from its foot point (the foot moves along the curve, to first order no change).
 
-    def system(z):
-        cc, rz = z[:2], z[2]
-        diff = cc - pa
-        dist = np.maximum(np.sqrt(np.add.reduce(diff * diff, axis=1)), 1e-300)   # np.linalg.norm's sum, less overhead
-        res, jac = np.empty(m), np.empty((m, 3))
-        res[:n] = dist - rz
-        jac[:n, :2] = diff / dist[:, None]
-        jac[:n, 2] = -1.0
-        for k, mod in enumerate(flanks, start=n):
-            d, lev, foot = _foot_on_flank(cc, mod)
-            w = 1.0 / np.sqrt(max(lev, 1e-3))
-            res[k] = w * (d - rz)
-            jac[k, :2] = w * ((cc - foot) / max(d, 1e-300))
-            jac[k, 2] = -w
-        return res, jac
+    The damped normal equations (JᵀJ + λ diag JᵀJ) step = −Jᵀres are 3 × 3: formed and solved on
+    plain floats (the arc's rows summed by numpy), so a step costs a few microseconds, not a
+    LAPACK call's overhead; 42 edges of a blade take ~2000 steps."""
+    n = len(pa)
+    px, py = np.ascontiguousarray(pa[:, 0]), np.ascontiguousarray(pa[:, 1])
+    fl = [(m[0], m[1], _inv_rows(m[2]), m[3]) for m in flanks]
+    J = np.empty((3, n))
+    J[2] = -1.0
 
-    res, J = system(z)
-    cost = res @ res
-    scale = max(abs(z[2]), 1.0)
+    def system(cx: float, cy: float, rz: float):
+        """(cost, JᵀJ as 3 rows, Jᵀres) at the circle (cx, cy, rz)."""
+        dx, dy = cx - px, cy - py
+        dist = np.maximum(np.sqrt(dx * dx + dy * dy), 1e-300)
+        res = dist - rz
+        np.divide(dx, dist, out=J[0])
+        np.divide(dy, dist, out=J[1])
+        (s00, s01, s02), (_, s11, s12), (_, _, s22) = (J @ J.T).tolist()
+        g0, g1, g2 = (J @ res).tolist()
+        cost = float(res @ res)
+        for mod in fl:
+            d, lev, fx, fy = _foot(cx, cy, mod)
+            w = 1.0 / math.sqrt(max(lev, 1e-3))
+            rk = w * (d - rz)
+            dd = max(d, 1e-300)
+            j0, j1, j2 = w * ((cx - fx) / dd), w * ((cy - fy) / dd), -w
+            s00 += j0 * j0
+            s01 += j0 * j1
+            s02 += j0 * j2
+            s11 += j1 * j1
+            s12 += j1 * j2
+            s22 += j2 * j2
+            g0 += j0 * rk
+            g1 += j1 * rk
+            g2 += j2 * rk
+            cost += rk * rk
+        return cost, (s00, s01, s02, s11, s12, s22), (g0, g1, g2)
+
+    z0, z1, z2 = (float(v) for v in z)
+    cost, S, g = system(z0, z1, z2)
+    scale = max(abs(z2), 1.0)
     lam = 1e-6
-    A, b = np.zeros((m + 3, 3)), np.zeros(m + 3)     # [J; diag(d)] step = [-res; 0], filled in place
-    diag = (np.arange(m, m + 3), np.arange(3))
     for _ in range(100):
         # Levenberg-Marquardt (Marquardt's scaling): along a thin edge the flanks' G1 hardly moves
         # with the centre's place along the camber line, so a plain Gauss-Newton step there is
         # huge, and halving it keeps its bad direction; the damping turns it towards the gradient
-        A[:m] = J
-        A[diag] = np.sqrt(lam * np.maximum((J * J).sum(axis=0), 1e-12))
-        np.negative(res, out=b[:m])
-        step = np.linalg.lstsq(A, b, rcond=None)[0]
-        if np.abs(step).max() < 1e-12 * scale:       # converged to round-off
+        s00, s01, s02, s11, s12, s22 = S
+        A = [[s00 + lam * max(s00, 1e-12), s01, s02], [s01, s11 + lam * max(s11, 1e-12), s12],
+             [s02, s12, s22 + lam * max(s22, 1e-12)]]
+        step = _solve_spd3(A, [-g[0], -g[1], -g[2]])
+        if step is None:                             # singular: the least-squares step as before
+            step = np.linalg.lstsq(np.array(A), -np.array(g), rcond=None)[0].tolist()
+        if max(abs(step[0]), abs(step[1]), abs(step[2])) < 1e-12 * scale:       # converged to round-off
             break
-        res_new, J_new = system(z + step)
-        if res_new @ res_new < cost:
-            z, res, J, cost = z + step, res_new, J_new, res_new @ res_new
+        t0, t1, t2 = z0 + step[0], z1 + step[1], z2 + step[2]
+        cost_new, S_new, g_new = system(t0, t1, t2)
+        if cost_new < cost:
+            z0, z1, z2, S, g, cost = t0, t1, t2, S_new, g_new, cost_new
             lam = max(lam * 0.1, 1e-12)
         else:
             lam *= 10.0
             if lam > 1e12:                           # no descent left: at the minimum
                 break
-    return z
+    return np.array([z0, z1, z2])
 
 
 def _touch_angle(c: np.ndarray, model, sgn: int, r: float) -> tuple[float, float]:
