@@ -256,14 +256,20 @@ _LIGHT_COMMANDS = ("acquire", "simulate-instrument")
 # stderr for any exception in it, a Ctrl-C's or a SIGTERM's too ("Error in generated code: ...",
 # then the one line; seen at 0.15 s into `deviation`, 2026-11-28)
 _SCIPY_MODULES = ("scipy.sparse.linalg", "scipy.spatial", "scipy.optimize", "scipy.interpolate")
+# Commands that need fewer of them: `sections` on planar sections never loads scipy.optimize or
+# scipy.interpolate (0.035 s of its 0.4 s target, issue 24); where it does (a non-planar section's
+# m'-theta frame, a STEP nominal) they load at that import, and neither builds generated source
+# (scipy._lib.decorator serves sparse.linalg and spatial only), so holding the signals is not needed there
+_SCIPY_MODULES_OF = {"sections": ("scipy.sparse.linalg", "scipy.spatial")}
 
 
-def _load_scipy() -> None:
-    """Load :data:`_SCIPY_MODULES` now (the caller holds Ctrl-C and SIGTERM, delivered after):
-    most commands load them within their first second anyway."""
+def _load_scipy(command: str | None = None) -> None:
+    """Load :data:`_SCIPY_MODULES` (or the command's own list, :data:`_SCIPY_MODULES_OF`) now
+    (the caller holds Ctrl-C and SIGTERM, delivered after): most commands load them within their
+    first second anyway."""
     import importlib
 
-    for name in _SCIPY_MODULES:
+    for name in _SCIPY_MODULES_OF.get(command, _SCIPY_MODULES):
         try:
             importlib.import_module(name)
         except ImportError:           # said where the command needs it, as before
@@ -288,7 +294,7 @@ def _main(argv: list[str]) -> int:
         return 2
     if args.command not in _LIGHT_COMMANDS:
         with signals_held():
-            _load_scipy()
+            _load_scipy(args.command)
     try:
         summary = args.run(args)
         if args.command == "simulate-instrument":   # one line: a controlling script reads it at once

@@ -795,10 +795,13 @@ def segment_blade(section_points: list[np.ndarray], span_axis: np.ndarray | None
     that point (rule ``"nominal"``). ``canonical``: measure each loop from :func:`canonical_loop` (figures
     independent of the start point and direction).
     """
-    from bladerecon.core.reconstruct import first_point_edge_hint
     from bladerecon.core.sections.segmentation import segment_section
 
-    hint = first_point_edge_hint(section_points[0]) if (first_point_is_measured and flow is None) else None
+    hint = None
+    if first_point_is_measured and flow is None:
+        # imported only here: the reconstruction module (and its skinning) costs `sections` 0.015 s
+        from bladerecon.core.reconstruct import first_point_edge_hint
+        hint = first_point_edge_hint(section_points[0])
     if flow is not None:
         f = np.asarray(flow, float)
         if f.shape != (3,) or not np.all(np.isfinite(f)) or np.linalg.norm(f) < 1e-12:
