@@ -153,12 +153,18 @@ def basis_functions(U: np.ndarray, degree: int, span: np.ndarray, u: np.ndarray)
 def basis_derivatives(U: np.ndarray, degree: int, span: np.ndarray, u: np.ndarray, n_ders: int) -> np.ndarray:
     """Basis functions and derivatives up to ``n_ders``: shape (m, n_ders+1, p+1) (NURBS Book A2.3).
 
-    Vectorised over all parameters; the loops run over the degree only.
+    Vectorised over all parameters; the loops run over the degree only. A few parameters (the
+    Newton iterations of a curve's chord ends) go through :func:`_basis_derivatives_few`: the
+    same operations on plain floats, the same numbers, without ~100 numpy calls' overhead.
     """
     p = degree
     u = np.asarray(u, dtype=float)
     m = u.size
     span = np.asarray(span)
+    if m <= _FEW and u.ndim == 1:
+        out = _basis_derivatives_few(U, p, span, u, n_ders)
+        if out is not None:
+            return out
     ndu = np.zeros((p + 1, p + 1, m))
     ndu[0, 0] = 1.0
     left = np.zeros((p + 1, m))
@@ -201,6 +207,62 @@ def basis_derivatives(U: np.ndarray, degree: int, span: np.ndarray, u: np.ndarra
         for k in range(1, nd + 1):
             ders[k] *= fac
             fac *= p - k
+    return np.transpose(ders, (2, 0, 1))
+
+
+_FEW = 4     # parameters up to which the basis is computed on plain floats
+
+
+def _basis_derivatives_few(U: np.ndarray, p: int, span: np.ndarray, u: np.ndarray, n_ders: int) -> np.ndarray | None:
+    """:func:`basis_derivatives` for a few parameters: each one's operations exactly as the
+    vectorised code does them (IEEE operations on floats give the same results in numpy and
+    Python), the result in the same memory layout; None on a zero division (numpy's inf/nan)."""
+    nd = min(n_ders, p)
+    ders = np.zeros((n_ders + 1, p + 1, u.size))
+    Ul = U.tolist()
+    for i, (uu, sp) in enumerate(zip(u.tolist(), span.tolist())):
+        ndu = [[0.0] * (p + 1) for _ in range(p + 1)]
+        ndu[0][0] = 1.0
+        left, right = [0.0] * (p + 1), [0.0] * (p + 1)
+        try:
+            for j in range(1, p + 1):
+                left[j] = uu - Ul[sp + 1 - j]
+                right[j] = Ul[sp + j] - uu
+                saved = 0.0
+                for r in range(j):
+                    ndu[j][r] = right[r + 1] + left[j - r]
+                    temp = ndu[r][j - 1] / ndu[j][r]
+                    ndu[r][j] = saved + right[r + 1] * temp
+                    saved = left[j - r] * temp
+                ndu[j][j] = saved
+            out = [[ndu[r][p] for r in range(p + 1)]] + [[0.0] * (p + 1) for _ in range(n_ders)]
+            a = [[0.0] * (p + 1), [0.0] * (p + 1)]
+            for r in range(p + 1):
+                s1, s2 = 0, 1
+                a[0][0] = 1.0
+                for k in range(1, nd + 1):
+                    d = 0.0
+                    rk, pk = r - k, p - k
+                    if r >= k:
+                        a[s2][0] = a[s1][0] / ndu[pk + 1][rk]
+                        d = a[s2][0] * ndu[rk][pk]
+                    j1 = 1 if rk >= -1 else -rk
+                    j2 = k - 1 if r - 1 <= pk else p - r
+                    for j in range(j1, j2 + 1):
+                        a[s2][j] = (a[s1][j] - a[s1][j - 1]) / ndu[pk + 1][rk + j]
+                        d = d + a[s2][j] * ndu[rk + j][pk]
+                    if r <= pk:
+                        a[s2][k] = -a[s1][k - 1] / ndu[pk + 1][r]
+                        d = d + a[s2][k] * ndu[r][pk]
+                    out[k][r] = d
+                    s1, s2 = s2, s1
+        except ZeroDivisionError:
+            return None
+        fac = p
+        for k in range(1, nd + 1):
+            out[k] = [v * fac for v in out[k]]
+            fac *= p - k
+        ders[:, :, i] = out
     return np.transpose(ders, (2, 0, 1))
 
 
