@@ -260,37 +260,52 @@ def _horner(k: list, x: float) -> float:
     return out
 
 
-def _foot(c0: float, cy: float, model) -> tuple[float, float, float, float]:
-    """:func:`_foot_on_flank` on plain floats: (distance, leverage, foot x, foot y)."""
-    _, xm, inv, (a, a1, a2, _) = model
+def _foot_data(model) -> tuple[float, list, list]:
+    """A flank model as :func:`_foot` takes it: (x shift, the polynomial's coefficients highest
+    power first, the leverage vᵀ (VᵀV)⁻¹ v as a polynomial in x, highest power first), v =
+    (x^deg, ..., x, 1) as np.vander's columns, so the leverage costs one Horner a foot."""
+    _, xm, inv, (a, _, _, _) = model
+    rows = inv.tolist() if isinstance(inv, np.ndarray) else inv
+    n = len(rows)
+    lev = [0.0] * (2 * n - 1)
+    for i, row in enumerate(rows):
+        for j, v in enumerate(row):
+            lev[i + j] += v
+    return xm, a[::-1], lev
+
+
+def _foot(c0: float, cy: float, fd) -> tuple[float, float, float, float]:
+    """:func:`_foot_on_flank` on plain floats (``fd`` from :func:`_foot_data`): (distance,
+    leverage, foot x, foot y)."""
+    xm, ad, lev = fd
     cx = c0 - xm
     x = cx
     for _ in range(8):
-        f, f1, f2 = _horner(a, x), _horner(a1, x), _horner(a2, x)
-        g = (x - cx) + (f - cy) * f1
-        gp = 1 + f1 * f1 + (f - cy) * f2
+        # f, f' and f'' by one Horner pass
+        f, d1, d2 = ad[0], 0.0, 0.0
+        for co in ad[1:]:
+            d2 = d2 * x + d1
+            d1 = d1 * x + f
+            f = f * x + co
+        g = (x - cx) + (f - cy) * d1
+        gp = 1 + d1 * d1 + (f - cy) * (2.0 * d2)
         step = g / gp if abs(gp) > 1e-12 else 0.0
         x -= step
         if abs(step) < 1e-13:
             break
-    # the leverage vᵀ (VᵀV)⁻¹ v, v = (x^deg, ..., x, 1) as np.vander's columns
-    v = [1.0]
-    for _ in range(len(a) - 1):
-        v.append(v[-1] * x)
-    v.reverse()
-    lev = sum(vi * sum(row[j] * vj for j, vj in enumerate(v)) for vi, row in zip(v, _inv_rows(inv)))
-    fx, fy = x + xm, _horner(a, x)
-    return math.hypot(c0 - fx, cy - fy), lev, fx, fy
-
-
-def _inv_rows(inv) -> list:
-    return inv.tolist() if isinstance(inv, np.ndarray) else inv
+    fy = lv = 0.0
+    for co in ad:
+        fy = fy * x + co
+    for co in lev:
+        lv = lv * x + co
+    fx = x + xm
+    return math.hypot(c0 - fx, cy - fy), lv, fx, fy
 
 
 def _foot_on_flank(c: np.ndarray, model) -> tuple[float, float, np.ndarray]:
     """Distance from c to the curve y = f(x) and the leverage of the fit at the foot point
     (Newton on the foot, from x = c_x): the G1 residual's variance is σ² times the leverage."""
-    d, lev, fx, fy = _foot(float(c[0]), float(c[1]), model)
+    d, lev, fx, fy = _foot(float(c[0]), float(c[1]), _foot_data(model))
     return d, lev, np.array([fx, fy])
 
 
@@ -330,7 +345,7 @@ def _fit_edge_circle(pa: np.ndarray, flanks: list, z: np.ndarray) -> np.ndarray:
     LAPACK call's overhead; 42 edges of a blade take ~2000 steps."""
     n = len(pa)
     px, py = np.ascontiguousarray(pa[:, 0]), np.ascontiguousarray(pa[:, 1])
-    fl = [(m[0], m[1], _inv_rows(m[2]), m[3]) for m in flanks]
+    fl = [_foot_data(m) for m in flanks]
     J = np.empty((3, n))
     J[2] = -1.0
 
