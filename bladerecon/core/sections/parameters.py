@@ -459,6 +459,7 @@ def _edge_circle(seg: Segmentation, region: int, cam: np.ndarray, rad: np.ndarra
     k0 = int(np.argmin(X))
     c = np.array([X[k0] + r, Y[k0]])
     split_prev, models, by_touch = None, [None, None], False
+    fitted = {}      # flank models by their points (mask bytes): the passes meet the same splits again
     for _ in range(16):
         # first with fixed bands round the centre (robust from a poor start), then each point on
         # the piece of the profile model it lies on: the arc between the flanks' touching points
@@ -472,7 +473,7 @@ def _edge_circle(seg: Segmentation, region: int, cam: np.ndarray, rad: np.ndarra
         if not measured_arc:        # the foremost point: the largest circle the points allow
             arc = X == X.min()
         side = Y - np.interp(X, cx, cy)
-        models, counts, flank_sq, masks = [], [], [], []
+        models, counts, masks = [], [], []
         for sgn, (ang, x_touch) in zip((1, -1), lim):
             beyond = (np.sign(side) == sgn) & ~arc
             beyond &= (np.mod(sgn * phi, 2 * np.pi) > ang) if by_touch else (X >= c[0] + 0.5 * r)
@@ -480,13 +481,12 @@ def _edge_circle(seg: Segmentation, region: int, cam: np.ndarray, rad: np.ndarra
                 m = beyond & (X <= x_touch + width * L)
                 if m.sum() >= 5:
                     break
-            models.append(_flank_model(X[m], Y[m]))
+            key = m.tobytes()
+            if key not in fitted:
+                fitted[key] = _flank_model(X[m], Y[m])
+            models.append(fitted[key])
             counts.append(int(m.sum()))
             masks.append(m)
-            if models[-1] is not None and m.sum() > len(models[-1][0]):
-                fres = np.polyval(models[-1][0], X[m] - models[-1][1]) - Y[m]
-                far = X[m] >= np.median(X[m])        # the window's far half: no joint in it
-                flank_sq.append(fres[far] * np.sqrt(m.sum() / (m.sum() - len(models[-1][0]))))
         split = (arc.tobytes(), masks[0].tobytes(), masks[1].tobytes())
         pa = np.column_stack([X[arc], Y[arc]])
 
@@ -502,6 +502,12 @@ def _edge_circle(seg: Segmentation, region: int, cam: np.ndarray, rad: np.ndarra
         split_prev = split
     if not (np.isfinite(r) and 0 < r < 0.5 * L):
         return None
+    flank_sq = []        # the last pass's flank residuals (the noise level)
+    for mod, m in zip(models, masks):
+        if mod is not None and m.sum() > len(mod[0]):
+            fres = np.polyval(mod[0], X[m] - mod[1]) - Y[m]
+            far = X[m] >= np.median(X[m])        # the window's far half: no joint in it
+            flank_sq.append(fres[far] * np.sqrt(m.sum() / (m.sum() - len(mod[0]))))
     # the shape figures away from the joints, where an edge that is not a circle (an ellipse)
     # differs most from one and its points cannot pass for the other piece's: arc points ahead
     # of the centre, and the flanks' noise from the far half of their windows
