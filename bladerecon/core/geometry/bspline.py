@@ -142,7 +142,7 @@ def find_spans(U: np.ndarray, degree: int, n_poles: int, u: np.ndarray) -> np.nd
     ``[degree, n_poles - 1]`` so the right end of the domain falls in the last span.
     """
     span = np.searchsorted(U, u, side="right") - 1
-    return np.clip(span, degree, n_poles - 1)
+    return np.minimum(np.maximum(span, degree), n_poles - 1)      # np.clip's numbers, less overhead
 
 
 def basis_functions(U: np.ndarray, degree: int, span: np.ndarray, u: np.ndarray) -> np.ndarray:
@@ -266,9 +266,11 @@ def _basis_derivatives_few(U: np.ndarray, p: int, span: np.ndarray, u: np.ndarra
     return np.transpose(ders, (2, 0, 1))
 
 
-def _prepare(knots, mults, degree, periodic, n_poles, u):
-    """Full knot vector, spans and pole indices (periodic indices wrapped) for parameters u."""
-    U = full_knot_vector(knots, mults, degree, periodic)
+def _prepare(knots, mults, degree, periodic, n_poles, u, U=None):
+    """Full knot vector, spans and pole indices (periodic indices wrapped) for parameters u
+    (``U``: the full knot vector when the caller has it)."""
+    if U is None:
+        U = full_knot_vector(knots, mults, degree, periodic)
     u = np.asarray(u, dtype=float).ravel()
     lo, hi = float(knots[0]), float(knots[-1])
     if periodic:
@@ -296,17 +298,19 @@ def collocation_matrix(
 
 
 # --------------------------------------------------------------------------- curves
-def curve_derivatives(curve: BSplineCurve, u: np.ndarray, n_ders: int = 0) -> np.ndarray:
-    """C^(k)(u) for k = 0..n_ders, shape (m, n_ders+1, dim) (NURBS Book A3.2, vectorised)."""
-    U, uu, span, idx = _prepare(curve.knots, curve.mults, curve.degree, curve.periodic, curve.n_poles, u)
+def curve_derivatives(curve: BSplineCurve, u: np.ndarray, n_ders: int = 0, knot_vector=None) -> np.ndarray:
+    """C^(k)(u) for k = 0..n_ders, shape (m, n_ders+1, dim) (NURBS Book A3.2, vectorised).
+    ``knot_vector``: ``curve.full_knots()`` when the caller evaluates the curve many times."""
+    U, uu, span, idx = _prepare(curve.knots, curve.mults, curve.degree, curve.periodic, curve.n_poles, u,
+                                knot_vector)
     ders = basis_derivatives(U, curve.degree, span, uu, n_ders)  # (m, k, p+1)
     P = np.asarray(curve.poles, dtype=float)[idx]  # (m, p+1, dim)
     return np.matmul(ders, P)
 
 
-def evaluate_curve(curve: BSplineCurve, u: np.ndarray) -> np.ndarray:
+def evaluate_curve(curve: BSplineCurve, u: np.ndarray, knot_vector=None) -> np.ndarray:
     """Points C(u), shape (m, dim)."""
-    return curve_derivatives(curve, u, 0)[:, 0, :]
+    return curve_derivatives(curve, u, 0, knot_vector)[:, 0, :]
 
 
 def curve_curvature(curve: BSplineCurve, u: np.ndarray) -> np.ndarray:
