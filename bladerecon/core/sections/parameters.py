@@ -349,20 +349,30 @@ def _fit_edge_circle(pa: np.ndarray, flanks: list, z: np.ndarray) -> np.ndarray:
     J = np.empty((3, n))
     J[2] = -1.0
 
-    def system(cx: float, cy: float, rz: float):
-        """(cost, JᵀJ as 3 rows, Jᵀres) at the circle (cx, cy, rz)."""
+    def residuals(cx: float, cy: float, rz: float):
+        """(cost, what :func:`normal` needs) at the circle (cx, cy, rz): a rejected step needs
+        no more (most steps near the end are, while the damping grows)."""
         dx, dy = cx - px, cy - py
         dist = np.maximum(np.sqrt(dx * dx + dy * dy), 1e-300)
         res = dist - rz
-        np.divide(dx, dist, out=J[0])
-        np.divide(dy, dist, out=J[1])
-        (s00, s01, s02), (_, s11, s12), (_, _, s22) = (J @ J.T).tolist()
-        g0, g1, g2 = (J @ res).tolist()
         cost = float(res @ res)
+        feet = []
         for mod in fl:
             d, lev, fx, fy = _foot(cx, cy, mod)
             w = 1.0 / math.sqrt(max(lev, 1e-3))
             rk = w * (d - rz)
+            cost += rk * rk
+            feet.append((d, w, rk, fx, fy))
+        return cost, (cx, cy, dx, dy, dist, res, feet)
+
+    def normal(state):
+        """JᵀJ (its 6 entries) and Jᵀres at an accepted circle."""
+        cx, cy, dx, dy, dist, res, feet = state
+        np.divide(dx, dist, out=J[0])
+        np.divide(dy, dist, out=J[1])
+        (s00, s01, s02), (_, s11, s12), (_, _, s22) = (J @ J.T).tolist()
+        g0, g1, g2 = (J @ res).tolist()
+        for d, w, rk, fx, fy in feet:
             dd = max(d, 1e-300)
             j0, j1, j2 = w * ((cx - fx) / dd), w * ((cy - fy) / dd), -w
             s00 += j0 * j0
@@ -374,8 +384,11 @@ def _fit_edge_circle(pa: np.ndarray, flanks: list, z: np.ndarray) -> np.ndarray:
             g0 += j0 * rk
             g1 += j1 * rk
             g2 += j2 * rk
-            cost += rk * rk
-        return cost, (s00, s01, s02, s11, s12, s22), (g0, g1, g2)
+        return (s00, s01, s02, s11, s12, s22), (g0, g1, g2)
+
+    def system(cx: float, cy: float, rz: float):
+        cost, state = residuals(cx, cy, rz)
+        return (cost, *normal(state))
 
     z0, z1, z2 = (float(v) for v in z)
     cost, S, g = system(z0, z1, z2)
@@ -394,9 +407,10 @@ def _fit_edge_circle(pa: np.ndarray, flanks: list, z: np.ndarray) -> np.ndarray:
         if max(abs(step[0]), abs(step[1]), abs(step[2])) < 1e-12 * scale:       # converged to round-off
             break
         t0, t1, t2 = z0 + step[0], z1 + step[1], z2 + step[2]
-        cost_new, S_new, g_new = system(t0, t1, t2)
+        cost_new, state = residuals(t0, t1, t2)
         if cost_new < cost:
-            z0, z1, z2, S, g, cost = t0, t1, t2, S_new, g_new, cost_new
+            S, g = normal(state)
+            z0, z1, z2, cost = t0, t1, t2, cost_new
             lam = max(lam * 0.1, 1e-12)
         else:
             lam *= 10.0
