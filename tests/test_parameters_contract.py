@@ -1143,7 +1143,10 @@ def test_an_edge_circle_not_between_zero_and_half_the_chord_is_no_circle(monkeyp
     cam, rad = pm.inscribed_circles(seg, 300)
     L = seg.chord
     r = {"zero": 0.0, "half_chord": 0.5 * L, "0.6_chord": 0.6 * L, "nan": float("nan"), "negative": -0.9}[bad]
-    monkeypatch.setattr(pm, "_fit_edge_circle", lambda pa, flanks, z: np.array([z[0], z[1], r]))
+    def forced(pa, flanks, z, report=False):
+        z = np.array([z[0], z[1], r])
+        return (z, True) if report else z
+    monkeypatch.setattr(pm, "_fit_edge_circle", forced)
     assert pm._edge_circle(seg, LE, cam, rad) is None
 
 
