@@ -1196,3 +1196,19 @@ def test_canonical_loop_of_a_tilted_section_runs_counter_clockwise_about_plus_z(
     for Q in (P, P[::-1]):
         out = pm.canonical_loop(Q)
         assert _polygon_area_centroid(out[:, :2])[0] > 0
+
+
+def test_nearest_with_a_hint_is_the_trees_answer():
+    """The bounded search of the inscribed circles (issue 24's time) answers as the full one,
+    from good hints (a neighbour a step before) and poor ones alike."""
+    from scipy.spatial import cKDTree
+
+    rng = np.random.default_rng(5)
+    t = np.sort(rng.random(1500)) * 2 * np.pi
+    pts = np.column_stack([20 * np.cos(t), 1.5 * np.sin(t)])
+    tree = cKDTree(pts, compact_nodes=False)
+    q = rng.normal(scale=[15.0, 1.0], size=(600, 2))
+    d_ref, i_ref = tree.query(q)
+    for hint in (i_ref, tree.query(q + 0.01)[1], rng.integers(0, 1500, 600)):
+        d, i = pm._nearest(tree, pts, q, hint)
+        assert np.array_equal(d, d_ref) and np.array_equal(i, i_ref)

@@ -176,7 +176,7 @@ def inscribed_circles(seg: Segmentation, stations: int | None = None) -> tuple[n
     x = (p - seg.le) @ chord_dir
     keep = (x > 0.005 * seg.chord) & (x < 0.995 * seg.chord)
     p, n = p[keep], n[keep]
-    d0, _ = tree.query(p)
+    d0, near = tree.query(p)
     lo_r = np.zeros(len(p))
     hi_r = np.full(len(p), 0.5 * seg.chord)
     r = 0.5 * d0
@@ -184,7 +184,8 @@ def inscribed_circles(seg: Segmentation, stations: int | None = None) -> tuple[n
     for _ in range(40):      # safeguarded Newton: f(r) = dist(p + r n, S) - r, f' = n·(c - s)/|c - s| - 1
         pa, na, ra = p[act], n[act], r[act]
         c = pa + ra[:, None] * na
-        d, i = tree.query(c)
+        d, i = _nearest(tree, s_pts, c, near[act])
+        near[act] = i
         f = d - ra
         lo_r[act] = np.where(f > 0, ra, lo_r[act])
         hi_r[act] = np.where(f > 0, hi_r[act], ra)
@@ -198,7 +199,7 @@ def inscribed_circles(seg: Segmentation, stations: int | None = None) -> tuple[n
         if not act.size:
             break
     c = p + r[:, None] * n
-    d, _ = tree.query(c)
+    d, _ = _nearest(tree, s_pts, c, near)
     # a station whose circle never touches the other side (a loop of the interpolant at a
     # sharp, sparsely measured edge) has no inscribed circle: drop it
     ok = (np.abs(d - r) < 1e-3) & (r < 0.25 * seg.chord) & _inside(c, loop)
@@ -208,6 +209,19 @@ def inscribed_circles(seg: Segmentation, stations: int | None = None) -> tuple[n
     c, r = c[ok], r[ok]
     order = np.argsort((c - seg.le) @ chord_dir)
     return c[order], r[order]
+
+
+def _nearest(tree, pts: np.ndarray, q: np.ndarray, hint: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``tree.query(q)`` (tree over ``pts``), the same answer sooner: no neighbour lies farther
+    than each query point's distance to ``pts[hint]`` (its neighbour a step before), so nodes
+    beyond the largest of those are never searched (scipy 1.10 takes one bound for all points)."""
+    diff = q - pts[hint]
+    bound = float(np.sqrt(np.max(np.einsum("ij,ij->i", diff, diff)))) if len(q) else 0.0
+    d, i = tree.query(q, distance_upper_bound=bound * (1.0 + 1e-9) + 1e-12)
+    lost = i >= tree.n
+    if lost.any():           # not expected (the bound holds every neighbour): the full search
+        d[lost], i[lost] = tree.query(q[lost])
+    return d, i
 
 
 def _inside(pts: np.ndarray, loop: np.ndarray) -> np.ndarray:
