@@ -134,3 +134,28 @@ def test_knot_vectors():
     d = 11 / 3
     want = [(1 - (j * d - int(j * d))) * uu[int(j * d) - 1] + (j * d - int(j * d)) * uu[int(j * d)] for j in (1, 2)]
     assert np.allclose(A[4:6], want)
+
+
+def test_few_parameters_give_the_vectorised_basis_bit_for_bit(monkeypatch):
+    """The plain-float path for a few parameters (chord-end Newton steps) repeats the vectorised
+    operations: the same numbers and memory layout, so no figure downstream moves."""
+    import bladerecon.core.geometry.bspline as bs
+
+    rng = np.random.default_rng(7)
+    for _ in range(400):
+        p = int(rng.integers(1, 6))
+        n_poles = int(rng.integers(p + 1, p + 12))
+        nk = n_poles - p + 1
+        knots = np.linspace(0, 1, nk) if rng.random() < 0.3 else np.sort(np.r_[0.0, rng.random(nk - 2), 1.0])
+        mults = np.ones(nk, int)
+        mults[[0, -1]] = p + 1
+        U = full_knot_vector(knots, mults, p, False)
+        u = rng.random(int(rng.integers(1, bs._FEW + 1)))
+        u[0] = knots[int(rng.integers(0, nk))] if rng.random() < 0.2 else u[0]
+        span = bs.find_spans(U, p, n_poles, u)
+        n_ders = int(rng.integers(0, p + 3))
+        few = bs.basis_derivatives(U, p, span, u, n_ders)
+        monkeypatch.setattr(bs, "_FEW", 0)
+        ref = bs.basis_derivatives(U, p, span, u, n_ders)
+        monkeypatch.undo()
+        assert few.shape == ref.shape and few.strides == ref.strides and np.array_equal(few, ref)

@@ -29,6 +29,37 @@ def _subparsers() -> dict[str, argparse.ArgumentParser]:
     return dict(action.choices)
 
 
+def test_a_command_line_builds_its_command_parser_alone_with_the_same_help():
+    """main() builds only the named command's parser (the other modules' imports cost `sections`
+    0.03 s, issue 24): the map names every command's module, and that parser is the full one's."""
+    from bladerecon.cli.main import COMMAND_MODULE
+
+    full = _subparsers()
+    assert set(COMMAND_MODULE) == set(full)
+    for name, sub in full.items():
+        parser = build_parser(name)
+        action = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+        assert name in action.choices and len(action.choices) <= 2      # acquire adds simulate-instrument
+        assert action.choices[name].format_help() == sub.format_help()
+    assert set(next(a for a in build_parser("--version")._actions
+                    if isinstance(a, argparse._SubParsersAction)).choices) == set(full)
+
+
+def test_unknown_arguments_after_a_command_get_the_full_parsers_message(capsys):
+    """The one-command parser leaves arguments it does not know to main(), which gives the full
+    parser's message (its usage names every command), as before."""
+    from bladerecon.cli.main import main
+
+    argv = ["sections", "in.csv", "--bogus", "x"]
+    with pytest.raises(SystemExit) as full:
+        build_parser().parse_args(argv)
+    want = capsys.readouterr().err
+    with pytest.raises(SystemExit) as got:
+        main(argv)
+    assert got.value.code == full.value.code == 2
+    assert capsys.readouterr().err == want and "{reconstruct,deviation,sections" in want
+
+
 def test_every_option_of_every_command_is_named_by_a_test():
     """An option that no test names is an option nobody checks: name it in a test (any of its
     spellings, as a quoted string) or remove it."""

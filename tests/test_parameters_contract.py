@@ -1147,7 +1147,10 @@ def test_an_edge_circle_not_between_zero_and_half_the_chord_is_no_circle(monkeyp
     cam, rad = pm.inscribed_circles(seg, 300)
     L = seg.chord
     r = {"zero": 0.0, "half_chord": 0.5 * L, "0.6_chord": 0.6 * L, "nan": float("nan"), "negative": -0.9}[bad]
-    monkeypatch.setattr(pm, "_fit_edge_circle", lambda pa, flanks, z: np.array([z[0], z[1], r]))
+    def forced(pa, flanks, z, report=False):
+        z = np.array([z[0], z[1], r])
+        return (z, True) if report else z
+    monkeypatch.setattr(pm, "_fit_edge_circle", forced)
     assert pm._edge_circle(seg, LE, cam, rad) is None
 
 
@@ -1197,3 +1200,19 @@ def test_canonical_loop_of_a_tilted_section_runs_counter_clockwise_about_plus_z(
     for Q in (P, P[::-1]):
         out = pm.canonical_loop(Q)
         assert _polygon_area_centroid(out[:, :2])[0] > 0
+
+
+def test_nearest_with_a_hint_is_the_trees_answer():
+    """The bounded search of the inscribed circles (issue 24's time) answers as the full one,
+    from good hints (a neighbour a step before) and poor ones alike."""
+    from scipy.spatial import cKDTree
+
+    rng = np.random.default_rng(5)
+    t = np.sort(rng.random(1500)) * 2 * np.pi
+    pts = np.column_stack([20 * np.cos(t), 1.5 * np.sin(t)])
+    tree = cKDTree(pts, compact_nodes=False)
+    q = rng.normal(scale=[15.0, 1.0], size=(600, 2))
+    d_ref, i_ref = tree.query(q)
+    for hint in (i_ref, tree.query(q + 0.01)[1], rng.integers(0, 1500, 600)):
+        d, i = pm._nearest(tree, pts, q, hint)
+        assert np.array_equal(d, d_ref) and np.array_equal(i, i_ref)

@@ -134,6 +134,33 @@ def test_rotor37_span_axis_is_radial_hub_to_tip():
 
 
 @pytest.mark.parametrize("name", ["rotor37", "rotor67"])
+def test_the_loop_order_bound_decides_as_the_computed_loop(name):
+    """A given order within KEEP_ORDER_RATIO of twice the points' extent is kept without the
+    computed loop (issue 24's time): the decision is the one the computed loop's length gives,
+    for sections in order, reversed, partly and wholly shuffled."""
+    from bladerecon.core.sections import ordering as od
+
+    ps = rotor(name)
+    span = build_sections(ps).span_axis
+    rng = np.random.default_rng(3)
+    for k in range(ps.n_sections):
+        q = in_frame(ps.section_points(k), span)
+        n = len(q)
+        swap = np.arange(n)
+        swap[[3, n // 2]] = swap[[n // 2, 3]]
+        for order in (np.arange(n), np.arange(n)[::-1], swap, rng.permutation(n)):
+            qq = q[order]
+            candidate = od._uncross(qq, od._camber_order(qq))
+            keep = od._loop_length(qq) <= od.KEEP_ORDER_RATIO * od._loop_length(qq[candidate])
+            try:
+                got, reordered = od._loop_order("t.csv", "s", qq, np.arange(n) + 1)
+            except BladeReconError:
+                continue
+            assert reordered == (not keep)
+            np.testing.assert_array_equal(got, np.arange(n) if keep else candidate)
+
+
+@pytest.mark.parametrize("name", ["rotor37", "rotor67"])
 @pytest.mark.parametrize("step", [1, 3])
 def test_rotor_sections_shuffled_are_recovered(name, step):
     ps = rotor(name)

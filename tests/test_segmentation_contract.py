@@ -829,3 +829,20 @@ def test_lift_at_exactly_the_non_planar_limit_is_planar():
     assert np.array_equal(seg.lift(q), seg.frame.to_space(q))
     seg = _hand_seg(frame=_frame(np.nextafter(NONPLANAR_LIMIT, 1.0)), offsets=off)
     assert np.allclose(seg.lift(q)[:, 2], 0.04, atol=1e-12)
+
+
+def test_curvature_filtered_round_the_ends_only_is_the_whole_tables_filter():
+    """The median filter run only on the stretches the edge analysis reads (issue 24's time)
+    gives those samples exactly the whole table's values, ties and wrapped stretches included."""
+    from bladerecon.core.sections import segmentation as sg
+
+    rng = np.random.default_rng(11)
+    for n, ends in ((8000, (5, 4100)), (8000, (7990, 3000)), (8000, (1000, 1500)), (2000, (0, 999))):
+        kappa = np.round(rng.standard_normal(n), 2) + np.where(rng.random(n) < 0.01, 50.0, 0.0)
+        perimeter, chord = 85.0, 40.0
+        full, w = sg._smoothed_curvature(kappa, perimeter, chord)
+        part, w2 = sg._smoothed_curvature(kappa, perimeter, chord, ends)
+        reach = sg._reach(perimeter, chord, n)
+        need = np.unique(np.concatenate([(i + np.arange(-reach, reach + 1)) % n for i in ends]))
+        assert w == w2 and np.array_equal(part[need], full[need])
+        assert np.isnan(np.delete(part, need)).all()

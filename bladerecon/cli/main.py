@@ -26,12 +26,16 @@ from bladerecon.core.errors import BladeReconError
 __all__ = ["main", "build_parser", "needed_modules", "missing_modules", "DEFAULT_PYTHON"]
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The command-line parser; with ``command`` (a known command's name, the first word of the
+    command line) only that command's module is loaded and its parser added: the same parse and
+    messages for that command line, without the other commands' imports (0.03 s of `sections`,
+    issue 24). Any other first word (an option, a typo) gets the full parser and its messages."""
     parser = argparse.ArgumentParser(prog="python3 -m bladerecon",
                                      description="Blade surface reconstruction from measured sections (units: mm).")
     parser.add_argument("--version", action="version", version=f"bladerecon {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
-    for module in COMMAND_MODULES:
+    for module in ((COMMAND_MODULE[command],) if command in COMMAND_MODULE else COMMAND_MODULES):
         importlib.import_module(module).add_parser(sub)
     return parser
 
@@ -41,6 +45,12 @@ def build_parser() -> argparse.ArgumentParser:
 COMMAND_MODULES: tuple[str, ...] = ("bladerecon.cli.reconstruct", "bladerecon.cli.deviation", "bladerecon.cli.sections",
                                     "bladerecon.cli.plan", "bladerecon.cli.tspline", "bladerecon.cli.acquire",
                                     "bladerecon.cli.batch", "bladerecon.cli.blisk", "bladerecon.cli.repair")
+# The module that adds each command (tests check it against the parsers COMMAND_MODULES add).
+COMMAND_MODULE: dict[str, str] = {
+    "reconstruct": "bladerecon.cli.reconstruct", "deviation": "bladerecon.cli.deviation",
+    "sections": "bladerecon.cli.sections", "plan": "bladerecon.cli.plan", "tspline": "bladerecon.cli.tspline",
+    "acquire": "bladerecon.cli.acquire", "simulate-instrument": "bladerecon.cli.acquire",
+    "batch": "bladerecon.cli.batch", "blisk": "bladerecon.cli.blisk", "repair": "bladerecon.cli.repair"}
 
 
 # The interpreter FreeCAD's Python modules are built for (Debian/Ubuntu); BLADERECON_PYTHON
@@ -256,14 +266,20 @@ _LIGHT_COMMANDS = ("acquire", "simulate-instrument")
 # stderr for any exception in it, a Ctrl-C's or a SIGTERM's too ("Error in generated code: ...",
 # then the one line; seen at 0.15 s into `deviation`, 2026-11-28)
 _SCIPY_MODULES = ("scipy.sparse.linalg", "scipy.spatial", "scipy.optimize", "scipy.interpolate")
+# Commands that need fewer of them: `sections` on planar sections never loads scipy.optimize or
+# scipy.interpolate (0.035 s of its 0.4 s target, issue 24); where it does (a non-planar section's
+# m'-theta frame, a STEP nominal) they load at that import, and neither builds generated source
+# (scipy._lib.decorator serves sparse.linalg and spatial only), so holding the signals is not needed there
+_SCIPY_MODULES_OF = {"sections": ("scipy.sparse.linalg", "scipy.spatial")}
 
 
-def _load_scipy() -> None:
-    """Load :data:`_SCIPY_MODULES` now (the caller holds Ctrl-C and SIGTERM, delivered after):
-    most commands load them within their first second anyway."""
+def _load_scipy(command: str | None = None) -> None:
+    """Load :data:`_SCIPY_MODULES` (or the command's own list, :data:`_SCIPY_MODULES_OF`) now
+    (the caller holds Ctrl-C and SIGTERM, delivered after): most commands load them within their
+    first second anyway."""
     import importlib
 
-    for name in _SCIPY_MODULES:
+    for name in _SCIPY_MODULES_OF.get(command, _SCIPY_MODULES):
         try:
             importlib.import_module(name)
         except ImportError:           # said where the command needs it, as before
@@ -280,15 +296,19 @@ def _main(argv: list[str]) -> int:
         if missing:    # the parser itself needs numpy (the command modules import it)
             print(interpreter_error(missing, argv), file=sys.stderr)
             return 2
-        parser = build_parser()
-    args = parser.parse_args(argv)
+        parser = build_parser(argv[0] if argv else None)
+    args, extra = parser.parse_known_args(argv)      # parse_args is this, then an error for the extras
+    if extra:     # the full parser's message for them, its usage naming every command, as before
+        with signals_held():
+            parser = build_parser()
+        args = parser.parse_args(argv)
     missing = missing_modules(needed_modules(args))
     if missing:    # before any output: a STEP written and then no report is worse than nothing
         print(interpreter_error(missing, argv), file=sys.stderr)
         return 2
     if args.command not in _LIGHT_COMMANDS:
         with signals_held():
-            _load_scipy()
+            _load_scipy(args.command)
     try:
         summary = args.run(args)
         if args.command == "simulate-instrument":   # one line: a controlling script reads it at once

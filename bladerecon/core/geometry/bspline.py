@@ -142,7 +142,7 @@ def find_spans(U: np.ndarray, degree: int, n_poles: int, u: np.ndarray) -> np.nd
     ``[degree, n_poles - 1]`` so the right end of the domain falls in the last span.
     """
     span = np.searchsorted(U, u, side="right") - 1
-    return np.clip(span, degree, n_poles - 1)
+    return np.minimum(np.maximum(span, degree), n_poles - 1)      # np.clip's numbers, less overhead
 
 
 def basis_functions(U: np.ndarray, degree: int, span: np.ndarray, u: np.ndarray) -> np.ndarray:
@@ -153,12 +153,18 @@ def basis_functions(U: np.ndarray, degree: int, span: np.ndarray, u: np.ndarray)
 def basis_derivatives(U: np.ndarray, degree: int, span: np.ndarray, u: np.ndarray, n_ders: int) -> np.ndarray:
     """Basis functions and derivatives up to ``n_ders``: shape (m, n_ders+1, p+1) (NURBS Book A2.3).
 
-    Vectorised over all parameters; the loops run over the degree only.
+    Vectorised over all parameters; the loops run over the degree only. A few parameters (the
+    Newton iterations of a curve's chord ends) go through :func:`_basis_derivatives_few`: the
+    same operations on plain floats, the same numbers, without ~100 numpy calls' overhead.
     """
     p = degree
     u = np.asarray(u, dtype=float)
     m = u.size
     span = np.asarray(span)
+    if m <= _FEW and u.ndim == 1:
+        out = _basis_derivatives_few(U, p, span, u, n_ders)
+        if out is not None:
+            return out
     ndu = np.zeros((p + 1, p + 1, m))
     ndu[0, 0] = 1.0
     left = np.zeros((p + 1, m))
@@ -204,9 +210,67 @@ def basis_derivatives(U: np.ndarray, degree: int, span: np.ndarray, u: np.ndarra
     return np.transpose(ders, (2, 0, 1))
 
 
-def _prepare(knots, mults, degree, periodic, n_poles, u):
-    """Full knot vector, spans and pole indices (periodic indices wrapped) for parameters u."""
-    U = full_knot_vector(knots, mults, degree, periodic)
+_FEW = 4     # parameters up to which the basis is computed on plain floats
+
+
+def _basis_derivatives_few(U: np.ndarray, p: int, span: np.ndarray, u: np.ndarray, n_ders: int) -> np.ndarray | None:
+    """:func:`basis_derivatives` for a few parameters: each one's operations exactly as the
+    vectorised code does them (IEEE operations on floats give the same results in numpy and
+    Python), the result in the same memory layout; None on a zero division (numpy's inf/nan)."""
+    nd = min(n_ders, p)
+    ders = np.zeros((n_ders + 1, p + 1, u.size))
+    Ul = U.tolist()
+    for i, (uu, sp) in enumerate(zip(u.tolist(), span.tolist())):
+        ndu = [[0.0] * (p + 1) for _ in range(p + 1)]
+        ndu[0][0] = 1.0
+        left, right = [0.0] * (p + 1), [0.0] * (p + 1)
+        try:
+            for j in range(1, p + 1):
+                left[j] = uu - Ul[sp + 1 - j]
+                right[j] = Ul[sp + j] - uu
+                saved = 0.0
+                for r in range(j):
+                    ndu[j][r] = right[r + 1] + left[j - r]
+                    temp = ndu[r][j - 1] / ndu[j][r]
+                    ndu[r][j] = saved + right[r + 1] * temp
+                    saved = left[j - r] * temp
+                ndu[j][j] = saved
+            out = [[ndu[r][p] for r in range(p + 1)]] + [[0.0] * (p + 1) for _ in range(n_ders)]
+            a = [[0.0] * (p + 1), [0.0] * (p + 1)]
+            for r in range(p + 1):
+                s1, s2 = 0, 1
+                a[0][0] = 1.0
+                for k in range(1, nd + 1):
+                    d = 0.0
+                    rk, pk = r - k, p - k
+                    if r >= k:
+                        a[s2][0] = a[s1][0] / ndu[pk + 1][rk]
+                        d = a[s2][0] * ndu[rk][pk]
+                    j1 = 1 if rk >= -1 else -rk
+                    j2 = k - 1 if r - 1 <= pk else p - r
+                    for j in range(j1, j2 + 1):
+                        a[s2][j] = (a[s1][j] - a[s1][j - 1]) / ndu[pk + 1][rk + j]
+                        d = d + a[s2][j] * ndu[rk + j][pk]
+                    if r <= pk:
+                        a[s2][k] = -a[s1][k - 1] / ndu[pk + 1][r]
+                        d = d + a[s2][k] * ndu[r][pk]
+                    out[k][r] = d
+                    s1, s2 = s2, s1
+        except ZeroDivisionError:
+            return None
+        fac = p
+        for k in range(1, nd + 1):
+            out[k] = [v * fac for v in out[k]]
+            fac *= p - k
+        ders[:, :, i] = out
+    return np.transpose(ders, (2, 0, 1))
+
+
+def _prepare(knots, mults, degree, periodic, n_poles, u, U=None):
+    """Full knot vector, spans and pole indices (periodic indices wrapped) for parameters u
+    (``U``: the full knot vector when the caller has it)."""
+    if U is None:
+        U = full_knot_vector(knots, mults, degree, periodic)
     u = np.asarray(u, dtype=float).ravel()
     lo, hi = float(knots[0]), float(knots[-1])
     if periodic:
@@ -234,17 +298,19 @@ def collocation_matrix(
 
 
 # --------------------------------------------------------------------------- curves
-def curve_derivatives(curve: BSplineCurve, u: np.ndarray, n_ders: int = 0) -> np.ndarray:
-    """C^(k)(u) for k = 0..n_ders, shape (m, n_ders+1, dim) (NURBS Book A3.2, vectorised)."""
-    U, uu, span, idx = _prepare(curve.knots, curve.mults, curve.degree, curve.periodic, curve.n_poles, u)
+def curve_derivatives(curve: BSplineCurve, u: np.ndarray, n_ders: int = 0, knot_vector=None) -> np.ndarray:
+    """C^(k)(u) for k = 0..n_ders, shape (m, n_ders+1, dim) (NURBS Book A3.2, vectorised).
+    ``knot_vector``: ``curve.full_knots()`` when the caller evaluates the curve many times."""
+    U, uu, span, idx = _prepare(curve.knots, curve.mults, curve.degree, curve.periodic, curve.n_poles, u,
+                                knot_vector)
     ders = basis_derivatives(U, curve.degree, span, uu, n_ders)  # (m, k, p+1)
-    P = np.asarray(curve.poles, dtype=float)[idx]  # (m, p+1, dim)
+    P = np.take(np.asarray(curve.poles, dtype=float), idx, axis=0)  # (m, p+1, dim): [idx]'s array, 10x faster
     return np.matmul(ders, P)
 
 
-def evaluate_curve(curve: BSplineCurve, u: np.ndarray) -> np.ndarray:
+def evaluate_curve(curve: BSplineCurve, u: np.ndarray, knot_vector=None) -> np.ndarray:
     """Points C(u), shape (m, dim)."""
-    return curve_derivatives(curve, u, 0)[:, 0, :]
+    return curve_derivatives(curve, u, 0, knot_vector)[:, 0, :]
 
 
 def curve_curvature(curve: BSplineCurve, u: np.ndarray) -> np.ndarray:
