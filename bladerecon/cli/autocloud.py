@@ -19,7 +19,7 @@ import numpy as np
 
 from bladerecon.core.errors import BladeReconError
 
-__all__ = ["add_options", "read_input", "is_auto", "build", "pole_cap_note"]
+__all__ = ["add_options", "read_input", "is_auto", "build", "pole_cap_note", "cloud_options", "check_cloud_size"]
 
 #: fewest points of a cloud sliced automatically (six sections of a few hundred points)
 MIN_CLOUD_POINTS = 2000
@@ -91,19 +91,9 @@ def read_input(args: argparse.Namespace):
         return realdata.read_input(args)
     from bladerecon.core.sections.blade_cloud import choose_method, cut_sections, section_set
 
-    if args.sections is not None and not 2 <= args.sections <= 200:
-        raise BladeReconError(f"--sections {args.sections}: give 2 to 200")
-    axis = None
-    if args.span_axis is not None:
-        axis = np.eye(3)["xyz".index(args.span_axis[-1])] * (-1.0 if args.span_axis.startswith("-") else 1.0)
+    axis, rng, rotor = cloud_options(args)
     P, lines = realdata._read_cloud(args.input, args.cloud_scale)
-    if len(P) < MIN_CLOUD_POINTS:
-        raise BladeReconError(
-            f"{args.input}: {len(P)} points with no section labels: too few to cut sections from automatically "
-            f"(a whole-blade cloud needs at least {MIN_CLOUD_POINTS}); label the sections (a 'section' column, or "
-            "blank lines between blocks) or cut them with --slice / --slice-at / --slice-radii")
-    rng = _span_range(args.span_range) if args.span_range is not None else None
-    rotor = np.eye(3)["xyz".index(args.rotor_axis)]
+    check_cloud_size(args.input, len(P), " or cut them with --slice / --slice-at / --slice-radii")
     cs = cut_sections(P, args.blade_kind, rng, args.sections, axis, rotor)
     args._auto_cloud = cs
     info = dict(cs.info)
@@ -113,6 +103,27 @@ def read_input(args: argparse.Namespace):
     if args.method == "auto":
         args.method, info["method_reason"], info["method_scores"] = choose_method(cs, P, args._cloud_sections)
     return cs.pointset(lines, args.input), info
+
+
+def cloud_options(args: argparse.Namespace) -> tuple:
+    """The cloud options as ``cut_sections`` takes them: (span axis or None, span range or None,
+    rotor axis); a ``--sections`` count outside 2..200 or a bad ``--span-range`` is one line."""
+    if args.sections is not None and not 2 <= args.sections <= 200:
+        raise BladeReconError(f"--sections {args.sections}: give 2 to 200")
+    axis = None
+    if args.span_axis is not None:
+        axis = np.eye(3)["xyz".index(args.span_axis[-1])] * (-1.0 if args.span_axis.startswith("-") else 1.0)
+    rng = _span_range(args.span_range) if args.span_range is not None else None
+    return axis, rng, np.eye(3)["xyz".index(args.rotor_axis)]
+
+
+def check_cloud_size(path: str, n: int, other_ways: str = "") -> None:
+    """A cloud too small to cut automatically is one line (``other_ways``: what else the command offers)."""
+    if n < MIN_CLOUD_POINTS:
+        raise BladeReconError(
+            f"{path}: {n} points with no section labels: too few to cut sections from automatically "
+            f"(a whole-blade cloud needs at least {MIN_CLOUD_POINTS}); label the sections (a 'section' column, or "
+            f"blank lines between blocks){other_ways}")
 
 
 def pole_cap_note(surface, refit_error: float, tolerance: float | None) -> dict | None:

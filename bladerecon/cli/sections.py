@@ -307,22 +307,12 @@ def _cloud_sections(args, ps):
     span direction, airfoil span (fillet and cap left out), planes or, for a radial rotor,
     stream surfaces; each section's ``cut`` in the JSON says where. A radial rotor's sections are
     measured in m'-theta about ``--rotor-axis`` unless ``--axis`` is given."""
-    from bladerecon.cli.autocloud import MIN_CLOUD_POINTS, _span_range
+    from bladerecon.cli.autocloud import check_cloud_size, cloud_options
     from bladerecon.core.sections.blade_cloud import cut_sections, section_set
 
     P = np.asarray(ps.points, float) * args.cloud_scale
-    if len(P) < MIN_CLOUD_POINTS:
-        raise BladeReconError(
-            f"{args.input}: {len(P)} points with no section labels: too few to cut sections from automatically "
-            f"(a whole-blade cloud needs at least {MIN_CLOUD_POINTS}); label the sections (a 'section' column, or "
-            "blank lines between blocks)")
-    if args.sections is not None and not 2 <= args.sections <= 200:
-        raise BladeReconError(f"--sections {args.sections}: give 2 to 200")
-    axis = None
-    if args.span_axis is not None:
-        axis = np.eye(3)["xyz".index(args.span_axis[-1])] * (-1.0 if args.span_axis.startswith("-") else 1.0)
-    rng = _span_range(args.span_range) if args.span_range is not None else None
-    rotor = np.eye(3)["xyz".index(args.rotor_axis)]
+    check_cloud_size(args.input, len(P))
+    axis, rng, rotor = cloud_options(args)
     cs = cut_sections(P, args.blade_kind, rng, args.sections, axis, rotor)
     ss = compensate(args, section_set(cs, np.asarray(ps.line), args.input))
     radial = cs.info.get("kind") == "stream-surfaces"

@@ -224,7 +224,7 @@ def _ellipse_distance(z: np.ndarray, P: np.ndarray) -> np.ndarray:
     return np.where(inside, -dist, dist)
 
 
-def _fit_ellipse_window(P: np.ndarray, z, radius: float, st: np.ndarray | None = None):
+def _fit_ellipse_window(P: np.ndarray, z, radius: float, st: np.ndarray):
     """Least squares on the Sampson distances of P from z (or from the edge circle); the
     major axis taken as the semi-axis nearer the camber line; None when it is no ellipse."""
     from scipy.optimize import least_squares
@@ -233,7 +233,7 @@ def _fit_ellipse_window(P: np.ndarray, z, radius: float, st: np.ndarray | None =
         return None
     if z is None:                                         # from the edge circle (the frame's origin)
         z = np.array([0.0, 0.0, radius, radius, 0.0])
-    lines = _flank_lines(st, z) if st is not None else []
+    lines = _flank_lines(st, z)
     z = least_squares(_ellipse_residuals, z, args=(P, lines), method="lm", xtol=1e-14, ftol=1e-14, gtol=1e-14).x.copy()
     if not np.all(np.isfinite(z)) or z[2] <= 0 or z[3] <= 0:
         return None
