@@ -168,6 +168,55 @@ def test_core_plane_cut_of_the_nominal_agrees_with_occ_slice():
     assert abs(spacing.mean() - 0.1) < 0.002
 
 
+def test_planes_on_the_nominals_ends_take_the_core_cut_stepped_inside():
+    """A measured section at the very end of the blade (z = 0, z = 100 on the sample nominal)
+    lies in the plane of the nominal's end: the core cut steps inside (fc.slicing.NUDGES) like
+    the OCC path, instead of falling back to ``Shape.slice`` for every plane (1 s a cut).
+    Referee: OCC's slice at the same stepped height, and OCC's distance to the face."""
+    from bladerecon.fc import slicing
+    from bladerecon.fc.export import read_shape
+    from bladerecon.core.sections.plan import _segment_distance
+
+    shape = read_shape(ROOT / "resources" / "sample" / "nominal.step")
+    calls = []
+
+    class Counted:                             # the shape, counting its OCC slices (Part.Shape is immutable)
+        def __getattr__(self, name):
+            return getattr(shape, name)
+
+        def slice(self, *a):
+            calls.append(a)
+            return shape.slice(*a)
+
+    # planes through the ends tilted by 1e-4 rad (a measured end section is never exactly level):
+    # each leaves part of the end outside the blade
+    origins = np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 50.0], [0.0, 0.0, 100.0]])
+    normals = np.array([[1e-4, 0.0, 1.0], [1e-4, 0.0, 1.0], [0.0, -1e-4, 1.0]])
+    normals /= np.linalg.norm(normals, axis=1)[:, None]
+    cuts = slicing.cut_sections("nominal", origins, normals, 0.1, shape=Counted())
+    assert calls == []                                    # the core path took every plane
+    for c, o, n, inward in zip(cuts, origins, normals, (1.0, 1.0, -1.0)):
+        shift = inward * float(np.mean((c - o) @ n))
+        assert np.abs((c - o) @ n - inward * shift).max() < 1e-9          # planar to round-off
+        # the cut moved inside by one of the nudges, the middle plane not at all
+        assert min(abs(shift - s) for s in slicing.NUDGES) < 1e-9
+        assert (shift == pytest.approx(0.0, abs=1e-9)) == (o[2] == 50.0)
+        assert 0.0 <= c[:, 2].min() and c[:, 2].max() <= 100.0
+        # on the face: OCC's own point projection (every 100th point)
+        surf = shape.Faces[0].Surface
+        d = [np.linalg.norm(np.array(surf.value(*surf.parameter(FreeCAD_vector(*p)))) - p) for p in c[::100]]
+        assert max(d) < 1e-6
+        # and all round it: as long as the analytic blade's section at that height (the nominal
+        # is its B-spline fit; 0.1 mm chords shorten a 0.5 mm edge radius by < 0.1 %)
+        length = np.linalg.norm(np.roll(c, -1, axis=0) - c, axis=1).sum()
+        assert abs(length / float(BLADE.section_length(np.mean(c[:, 2]) / 100.0)) - 1.0) < 1e-3
+
+
+def FreeCAD_vector(*xyz):
+    from bladerecon.fc.freecad_env import import_freecad
+    return import_freecad()[0].Vector(*xyz)
+
+
 def test_cli_plan_from_a_dense_section_file(tmp_path):
     f = tmp_path / "dense.csv"
     secs = [_dense(h) for h in (0.1, 0.5, 0.9)]

@@ -88,11 +88,22 @@ def _cut_single_face(shape, origins, normals, step):
     surf = from_part_surface(face.Surface)
     if not surf.u_periodic:
         return None
+    bb = shape.BoundBox
+    centre = np.array([bb.Center.x, bb.Center.y, bb.Center.z])
     out = []
     for o, n in zip(np.asarray(origins, float), np.asarray(normals, float)):
-        try:
-            pts = cut_surface(surf, o, n, step)
-        except BladeReconError:
+        n = n / np.linalg.norm(n)
+        inward = 1.0 if (centre - o) @ n >= 0 else -1.0
+        pts = None
+        # a section measured at the very end of the blade lies in the plane of the nominal's
+        # end: step inside by up to 0.1 mm, as the OCC path below does
+        for shift in NUDGES:
+            try:
+                pts = cut_surface(surf, o + inward * shift * n, n, step)
+                break
+            except BladeReconError:
+                continue
+        if pts is None:
             return None
         e1 = np.cross(n, np.eye(3)[np.argmin(np.abs(n))])
         e2 = np.cross(n, e1)
