@@ -217,14 +217,10 @@ def _surface_analysis_plots(tmp: str, surface, sign: float, what: str) -> dict[s
     xyz = evaluate_surface(surface, uu.ravel(), vv.ravel()).reshape(uu.shape + (3,))
     c = surface_curvature(surface, uu.ravel(), vv.ravel(), sign)
     z = zebra(c.normal, view=(1.0, 0.3, -0.2), stripe_axis=(0.0, 0.0, 1.0), stripes=16).reshape(uu.shape)
-    fig = plt.figure(figsize=(10, 7), dpi=100)
-    for k, azim in enumerate((-60, 120)):
-        ax = fig.add_subplot(1, 2, k + 1, projection="3d")
-        colours = plt.cm.gray(z)
-        ax.plot_surface(xyz[..., 0], xyz[..., 1], xyz[..., 2], facecolors=colours, rstride=1, cstride=1,
-                        linewidth=0, antialiased=False, shade=False)
-        ax.view_init(15, azim)
-        ax.set_box_aspect(np.ptp(xyz.reshape(-1, 3), axis=0) + 1e-9)
+    fig, axes = plt.subplots(1, 2, figsize=(10, 7), dpi=100)
+    for ax, azim in zip(axes, (-60, 120)):
+        ax.imshow(_orthographic_image(xyz, z, 15.0, azim, 460, 600), cmap="gray", vmin=0.0, vmax=1.0,
+                  interpolation="nearest")
         ax.set_axis_off()
     fig.suptitle(f"Zebra: reflection of 16 vertical light bands in the {what} (kinks = G1 breaks)")
     fig.tight_layout()
@@ -232,6 +228,59 @@ def _surface_analysis_plots(tmp: str, surface, sign: float, what: str) -> dict[s
     plt.close(fig)
     files["zebra.png"] = f"Zebra stripes from the normals of the {what}"
     return files
+
+
+def _upsample(a: np.ndarray, factor: int, axis: int) -> np.ndarray:
+    """Linear interpolation of a grid along one axis: ``factor`` samples per interval."""
+    if factor <= 1:
+        return a
+    n = a.shape[axis]
+    t = np.arange((n - 1) * factor + 1) / factor
+    i = np.minimum(t.astype(int), n - 2)
+    w = (t - i).astype(a.dtype).reshape([-1 if k == axis else 1 for k in range(a.ndim)])
+    out = np.take(a, i, axis=axis)
+    out += (np.take(a, i + 1, axis=axis) - out) * w
+    return out
+
+
+def _orthographic_image(xyz: np.ndarray, value: np.ndarray, elev: float, azim: float, width: int,
+                        height: int) -> np.ndarray:
+    """Grey image (height, width) of a gridded surface ``xyz`` (nu, nv, 3) coloured by ``value``
+    (nu, nv) in [0, 1], seen from elevation/azimuth (degrees, as matplotlib's 3-D axes) in
+    orthographic projection, true scale, background 1 (white).
+
+    A z-buffer over a grid refined (linearly) until neighbouring samples land under half a pixel
+    apart: each pixel shows the sample nearest the eye. ~100x faster than ``plot_surface`` with
+    a face colour per quad (seconds per view), and no painter's-order errors.
+    """
+    e, a = np.radians(elev), np.radians(azim)
+    eye = np.array([np.cos(e) * np.cos(a), np.cos(e) * np.sin(a), np.sin(e)])
+    right = np.array([-np.sin(a), np.cos(a), 0.0])
+    up = np.cross(eye, right)
+    screen = np.stack([xyz @ right, xyz @ up], axis=-1)
+    lo, hi = screen.reshape(-1, 2).min(axis=0), screen.reshape(-1, 2).max(axis=0)
+    scale = 0.96 * min((width - 1) / max(hi[0] - lo[0], 1e-12), (height - 1) / max(hi[1] - lo[1], 1e-12))
+    # refine until neighbouring samples are < 0.7 px apart along both grid directions (no pixel
+    # inside the surface left empty; at most ~3 M samples): screen position, depth and value
+    # interpolated together, in single precision (a pixel is ~0.2 mm here)
+    gap = [float(np.linalg.norm(np.diff(screen, axis=k), axis=-1).max()) * scale for k in (0, 1)]
+    fu, fv = (max(1, int(np.ceil(g / 0.7))) for g in gap)
+    while (xyz.shape[0] * fu) * (xyz.shape[1] * fv) > 3_000_000 and max(fu, fv) > 1:
+        fu, fv = max(1, fu - (fu >= fv)), max(1, fv - (fv > fu))
+    grid = np.concatenate([screen, (xyz @ eye)[..., None], value[..., None]], axis=-1).astype(np.float32)
+    fine = _upsample(_upsample(grid, fu, 0), fv, 1).reshape(-1, 4)
+    centre = 0.5 * (lo + hi)
+    col = np.rint((fine[:, 0] - centre[0]) * scale + 0.5 * (width - 1)).astype(np.int64)
+    row = np.rint(0.5 * (height - 1) - (fine[:, 1] - centre[1]) * scale).astype(np.int64)
+    ok = (col >= 0) & (col < width) & (row >= 0) & (row < height)
+    pix, depth, val = (row * width + col)[ok], fine[ok, 2], fine[ok, 3]
+    order = np.lexsort((-depth, pix))                 # per pixel, the sample nearest the eye first
+    pix, val = pix[order], val[order]
+    first = np.ones(pix.size, bool)
+    first[1:] = pix[1:] != pix[:-1]
+    image = np.ones(width * height)
+    image[pix[first]] = np.clip(val[first], 0.0, 1.0)
+    return image.reshape(height, width)
 
 
 def _symlog(linthresh: float, lim: float):
