@@ -131,6 +131,7 @@ def _plot_needles(path: str, groups, P, foot, normal, d_mm: np.ndarray, tol_um: 
     """Each section in its own plane (its principal directions), needles from the foot along the
     normal, scaled."""
     plt = _plt()
+    from matplotlib.collections import LineCollection
     groups = [(name, idx) for name, idx in groups if idx.size]
     n = len(groups)
     if n == 0:
@@ -148,9 +149,9 @@ def _plot_needles(path: str, groups, P, foot, normal, d_mm: np.ndarray, tol_um: 
         tip = ((foot[sel] + (d_mm[sel] * scale)[:, None] * normal[sel]) - o) @ basis.T
         out = np.abs(d_mm[sel]) * 1000 > tol_um
         for mask, colour in ((~out, "#2b8a3e"), (out, "crimson")):
-            segs = np.stack([f2[sel][mask], tip[mask]], axis=1)
-            for seg in segs:
-                ax.plot(seg[:, 0], seg[:, 1], color=colour, lw=0.6)
+            ax.add_collection(LineCollection(np.stack([f2[sel][mask], tip[mask]], axis=1), colors=colour,
+                                             linewidths=0.6))
+        ax.autoscale_view()
         k_max, k_min = idx[np.argmax(d_mm[idx])], idx[np.argmin(d_mm[idx])]
         for k in (k_max, k_min):
             ax.annotate(f"{d_mm[k] * 1000:+.1f} µm", f2[k], fontsize=7)
@@ -171,6 +172,7 @@ def _surface_analysis_plots(tmp: str, surface, sign: float, what: str) -> dict[s
     from bladerecon.core.analysis.surface_analysis import section_curvature, surface_curvature, zebra
 
     plt = _plt()
+    from matplotlib.collections import LineCollection
     files = {}
     (u0, u1), (v0, v1) = surface.u_domain, surface.v_domain
     uu, vv = np.meshgrid(np.linspace(u0, u1, 721), np.linspace(v0, v1, 61), indexing="ij")
@@ -201,8 +203,7 @@ def _surface_analysis_plots(tmp: str, surface, sign: float, what: str) -> dict[s
         tips = (pts + (k * scale)[:, None] * teeth - o) @ basis.T
         pts = (pts - o) @ basis.T                      # the section in its own plane
         ax.plot(pts[:, 0], pts[:, 1], lw=0.8, color="k")
-        for a, b in zip(pts[::2], tips[::2]):
-            ax.plot([a[0], b[0]], [a[1], b[1]], color="#1f77b4", lw=0.3)
+        ax.add_collection(LineCollection(np.stack([pts[::2], tips[::2]], axis=1), colors="#1f77b4", linewidths=0.3))
         ax.plot(tips[:, 0], tips[:, 1], color="#1f77b4", lw=0.6)
         ax.set_aspect("equal")
         ax.set_title(f"v = {v:.2f}; teeth out ∝ curvature, clipped at {clip:.3g}/mm", fontsize=9)
