@@ -105,17 +105,24 @@ def test_tls_line_point_direction_and_rms():
 ELLIPSES = [(0.3, -0.1, 1.2, 0.4, 0.35), (-0.2, 0.5, 2.0, 0.5, -1.2), (0.0, 0.0, 0.6, 0.58, 2.9)]
 
 
-@pytest.mark.parametrize("z", ELLIPSES)
-def test_ellipse_distance_is_the_signed_distance_to_the_foot(z):
+@pytest.mark.parametrize("z, deltas, k, shift", [
+    *[(z, (1e-3, 0.1, 1.0, 5.0, -0.5, -0.95), 37, 0.05) for z in ELLIPSES],
+    ((0.1, 0.2, 3.0, 0.3, 0.4), (1e-3, 0.1, 1.0, 5.0, 18.0, -0.5), 361, 0.05),    # slender (10:1), far points
+    ((0.0, 0.0, 1.2, 0.42, 0.0), (-0.97,), 721, 0.003),                           # deep inside, by the tips
+])
+def test_ellipse_distance_is_the_signed_distance_to_the_foot(z, deltas, k, shift):
     """A point δ along the outward normal from a foot is |δ| from the ellipse, outside (δ > 0)
     for any δ (the ellipse is convex) and inside for δ < 0 up to the smallest radius of curvature
-    b²/a (a disk of that radius touching from inside stays inside: Blaschke's rolling theorem).
-    Newton stops at a 1e-14 step: 1e-9 mm is round-off."""
+    ρ = b²/a (a disk of that radius touching from inside stays inside: Blaschke's rolling theorem);
+    the negative δ are given in units of ρ. Newton stops at a 1e-14 step: 1e-9 mm is round-off.
+    (Deeper than about 0.97 ρ, by the centre of curvature of a slender ellipse's tip, the Newton
+    search can settle on a farther foot; an edge's points lie within the noise of its ellipse.)"""
     _, _, a, b, _ = z
-    e = np.linspace(0.0, 2 * np.pi, 37)[:-1] + 0.05
+    e = np.linspace(0.0, 2 * np.pi, k)[:-1] + shift
     foot, nrm = ell_point(z, e), ell_normal(z, e)
     rho = min(a, b) ** 2 / max(a, b)
-    for delta in (1e-3, 0.1, 1.0, 5.0, -0.5 * rho, -0.95 * rho):
+    for delta in deltas:
+        delta = delta * rho if delta < 0 else delta
         d = es._ellipse_distance(np.array(z), foot + delta * nrm)
         assert np.allclose(d, delta, atol=1e-9), (delta, np.abs(d - delta).max())
 
@@ -203,9 +210,11 @@ FAR = np.array([[4.0, 1.0], [5.0, 0.0], [4.0, -1.0]])          # more than 3 rad
 
 
 @pytest.mark.parametrize("phi", [0.0, 25.0, -40.0, 45.0, -10.0])
-def test_find_flat_reports_the_flat_of_a_blunt_edge(phi):
+@pytest.mark.parametrize("reverse", [False, True])
+def test_find_flat_reports_the_flat_of_a_blunt_edge(phi, reverse):
     """A straight flat of known direction and ends among flank points behind it: its point (the
-    middle), direction (along +t), outward normal, points, length and ends."""
+    middle), direction (along +t, whichever way the loop runs), outward normal, points, length and
+    ends (in the direction's order)."""
     along = np.linspace(-0.6, 0.5, 56)
     pts, d, n = _line_points(phi, along, m0=(0.1, 0.05))
     # flanks leaving the flat's ends backwards (behind it: depth grows)
@@ -213,9 +222,12 @@ def test_find_flat_reports_the_flat_of_a_blunt_edge(phi):
     lo = pts[0] + back * np.array([1.0, -0.2])
     hi = pts[-1] + back * np.array([1.0, 0.2])
     st = np.vstack([lo[::-1], pts, hi, FAR])
+    index = np.arange(len(lo), len(lo) + len(pts))
+    if reverse:
+        st, index = st[::-1], len(st) - 1 - index
     f = es.find_flat(st, 0.5, 0.005)
     assert f is not None
-    assert f["points"] == len(pts) and sorted(f["index"]) == list(range(len(lo), len(lo) + len(pts)))
+    assert f["points"] == len(pts) and sorted(f["index"]) == sorted(index)
     assert np.allclose(f["direction"], d, atol=1e-9) and np.allclose(f["normal"], n, atol=1e-9)
     assert np.allclose(f["point"], pts.mean(axis=0), atol=1e-9)
     assert abs(f["length"] - 1.1) < 1e-9 and f["rms"] < 1e-9
@@ -242,6 +254,39 @@ def test_find_flat_looks_within_three_radii_of_the_front():
     f = es.find_flat(np.vstack([pts, FAR + [3.0, 0.0]]), 0.5, 0.002)
     assert f is not None
     assert abs(f["length"] - 1.5 / np.sin(np.radians(50.0))) <= 0.0101, f["length"]
+
+
+@pytest.mark.parametrize("phi_a, is_a", [(60.0, True), (60.75, False), (-60.0, True), (-60.75, False)])
+def test_find_flat_searches_normals_within_60_degrees(phi_a, is_a):
+    """Two facets of a convex front meeting at the origin: A (151 points over 1.5 mm, its normal
+    phi_a from -s) and B (101 points over 1 mm, its normal 90° from A's, on the other side of the
+    camber line). The flat is the line most points lie on among normals within ±60° of -s: A at
+    ±60°, B when A leans 60.75° (no grid line within tol 2 µm holds more than a few of A's points:
+    at 60° they drop from the tip by sin 0.75° = 13 µm per mm)."""
+    pa = np.radians(abs(phi_a))
+    da = np.array([np.sin(pa), np.cos(pa)])                      # A: from the origin to +t (and +s)
+    db = np.array([np.cos(pa), -np.sin(pa)])                     # B: to -t (and +s), normal 90° from A's
+    st = np.vstack([np.linspace(0.0, 1.0, 101)[:0:-1, None] * db, np.linspace(0.0, 1.5, 151)[:, None] * da, FAR])
+    if phi_a < 0:                                                # the mirror image across the camber line
+        st, da, db = st * [1.0, -1.0], da * [1.0, -1.0], db * [1.0, -1.0]
+    f = es.find_flat(st, 0.5, 0.002)
+    assert f is not None
+    want = (da, 151, 1.5) if is_a else (db, 101, 1.0)
+    assert f["points"] == want[1] and abs(f["length"] - want[2]) < 1e-9
+    assert abs(abs(f["direction"] @ want[0]) - 1.0) < 1e-9
+
+
+def test_find_flat_refuses_a_line_that_points_cut():
+    """The flat is the profile's outermost line: two points 3.5 tol beyond a straight flat (a burr
+    by its lower end) cut it, and there is no flat; 2.5 tol beyond they do not (tol 0.01 mm), and
+    the flat is the line's 201 points over 2 mm."""
+    pts = np.column_stack([np.zeros(201), np.linspace(-1.0, 1.0, 201)])
+    for out, want in ((0.035, None), (0.025, 201)):
+        burr = np.array([[-out, -0.955], [-out, -0.945]])
+        f = es.find_flat(np.vstack([pts[:5], burr, pts[5:], FAR]), 1.0, 0.01)
+        assert (f if f is None else f["points"]) == want
+        if f is not None:
+            assert abs(f["length"] - 2.0) < 1e-9
 
 
 def _arc(kappa, half, k):
@@ -312,9 +357,27 @@ def test_flat_width_falls_back_to_the_flats_ends():
     st, _, _ = flat_edge(c1=(0.0, -0.3), c2=(0.0, 0.7), depths=[0.2, 0.6, 1.2, 2.0, 3.0])
     width, mid = _width(st)
     assert width is None and np.allclose(mid, [0.0, 0.2], atol=1e-9)
-    st, _, _ = flat_edge(c1=(0.0, -0.3), c2=(0.0, 0.7), depths=[0.2, 0.6, 1.0, 1.4, 2.0, 3.0])
+    for depths in ([0.2, 0.6, 1.0, 1.4, 2.0, 3.0], [0.6, 1.0, 1.4, 2.0, 3.0]):    # the first point already deep
+        st, _, _ = flat_edge(c1=(0.0, -0.3), c2=(0.0, 0.7), depths=depths)
+        width, mid = _width(st)
+        assert width is not None and abs(width - 1.0) < 1e-9 and np.allclose(mid, [0.0, 0.2], atol=1e-9)
+
+
+def test_flat_width_walks_half_the_loop_from_each_end():
+    """Each flank's points are found walking the loop from the flat's end, at most half the loop:
+    a flat of 3 points, 42 points on the lower flank within a radius of the flat, then 3 between 1
+    and 3 radii (0.7, 1.0, 1.3 of 0.5), one deeper; the upper flank likewise with 40: 93 points,
+    the walk's 45 steps reach the lower flank's third deep point exactly. Straight flanks through
+    the corners (0, ±0.5): width 1.0, midpoint (0, 0)."""
+    def flank(c, slope, shallow):
+        dep = np.r_[np.linspace(0.01, 0.45, shallow), 0.7, 1.0, 1.3, 2.0]
+        return np.asarray(c) + np.column_stack([dep, slope * dep])
+
+    st = np.vstack([flank((0.0, -0.5), -0.15, 42)[::-1], [[0.0, -0.5], [0.0, 0.0], [0.0, 0.5]],
+                    flank((0.0, 0.5), 0.1, 40)])
+    assert len(st) == 93
     width, mid = _width(st)
-    assert width is not None and abs(width - 1.0) < 1e-9 and np.allclose(mid, [0.0, 0.2], atol=1e-9)
+    assert width is not None and abs(width - 1.0) < 1e-9 and np.allclose(mid, [0.0, 0.0], atol=1e-9)
 
 
 def test_flat_width_wider_than_four_radii_is_dropped():
@@ -399,6 +462,27 @@ def test_fit_edge_ellipse_sanity_bounds(a, b, radius, ok):
     assert (r is not None) == ok
     if ok:
         _close(np.r_[r["centre"], r["a"], r["b"], r["angle"]], z)
+
+
+def test_fit_edge_ellipse_refuses_a_tilted_ellipse():
+    """A designed edge ellipse lies within 10° of the camber line: an exact one tilted 10.5° is
+    refused, one tilted 9.5° taken."""
+    for deg, ok in ((10.5, False), (9.5, True)):
+        z = np.array([0.7, 0.02, 1.2, 0.5, np.radians(deg)])
+        r = es.fit_edge_ellipse(ellipse_edge(z), 0.5)
+        assert (r is not None) == ok
+        if ok:
+            _close(np.r_[r["centre"], r["a"], r["b"], r["angle"]], z)
+
+
+@pytest.mark.parametrize("ahead, t", [(0.3, 0.0), (0.4, 0.3), (0.5, -0.45)])
+def test_fit_edge_ellipse_tip_must_be_the_front(ahead, t):
+    """A point 0.3-0.5 mm (0.6-1 radius of 0.5) ahead of an exact ellipse's tip: the ellipse's tip
+    is not at the foremost point (one stray point among some 40 on the ellipse leaves the fit near
+    it): refused."""
+    z = np.array([0.7, 0.0, 1.2, 0.5, 0.0])
+    st = np.vstack([ellipse_edge(z), [[z[0] - z[2] - ahead, t]]])
+    assert es.fit_edge_ellipse(st, 0.5) is None
 
 
 def test_fit_edge_ellipse_tip_near_the_front_across_t():
