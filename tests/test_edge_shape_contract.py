@@ -261,8 +261,8 @@ def test_find_flat_searches_normals_within_60_degrees(phi_a, is_a):
     """Two facets of a convex front meeting at the origin: A (151 points over 1.5 mm, its normal
     phi_a from -s) and B (101 points over 1 mm, its normal 90° from A's, on the other side of the
     camber line). The flat is the line most points lie on among normals within ±60° of -s: A at
-    ±60°, B when A leans 60.75° (no grid line within tol 2 µm holds more than a few of A's points:
-    at 60° they drop from the tip by sin 0.75° = 13 µm per mm)."""
+    ±60°, B when A leans 60.75° (no grid line holds more than 16 of A's points within tol 2 µm:
+    at 60° they drop from the tip by sin 0.75° = 13 µm per mm, 0.15 mm of A at 0.01 mm spacing)."""
     pa = np.radians(abs(phi_a))
     da = np.array([np.sin(pa), np.cos(pa)])                      # A: from the origin to +t (and +s)
     db = np.array([np.cos(pa), -np.sin(pa)])                     # B: to -t (and +s), normal 90° from A's
@@ -523,8 +523,10 @@ def test_edge_shape_ellipse_axes_must_differ_by_five_percent(a, want):
 
 def _zigzag_ellipse(delta):
     """The 2.4:1 ellipse's 80 front points moved ±δ along the normal in turn, the flanks exact:
-    the fit's rms lies between δ·√(1 - 5/n) (five parameters absorb at most five of the n window
-    points' squared offsets; n >= 40) and δ."""
+    the true ellipse is δ from each of the 80 window points; the fit's five parameters absorb at
+    most five of their squared offsets, so its rms lies between δ·√(1 - 5/80) = 0.97δ and δ, to
+    first order (the Sampson distance it minimises differs from the orthogonal one by about
+    δ·a/b² = 2 %)."""
     z = np.array([0.7, 0.0, 1.2, 0.5, 0.0])
     st = ellipse_edge(z, n_front=80)
     e = np.linspace(np.pi / 2, 3 * np.pi / 2, 82)[1:-1]
@@ -541,7 +543,7 @@ def _zigzag_ellipse(delta):
     (0.0, 10.0, 5.5, "ellipse"),         # a fifth of 5.5δ: 1.1δ
 ])
 def test_edge_shape_ellipse_must_pass_roundness_and_beat_the_circle(flank_rms, roundness, circle_rms, want):
-    """The ellipse is taken when its rms (δ·[0.94, 1] here, see _zigzag_ellipse) is at most both
+    """The ellipse is taken when its rms (0.97δ to δ here, see _zigzag_ellipse) is at most both
     4 × flank_rms + roundness and a fifth of the circle's rms (figures in units of δ = 5 µm)."""
     delta = 0.005
     r = es.edge_shape(_zigzag_ellipse(delta), CENTRE, 0.5, AXIS, flank_rms * delta, roundness * delta,
