@@ -292,8 +292,9 @@ def edge_shape(points2d: np.ndarray, centre: np.ndarray, radius: float, axis: np
     ``points2d`` (n, 2): the section's points; ``centre``, ``radius``, ``axis``: its edge circle
     and the camber line's tangent there (into the blade); ``flank_rms``: the flanks' noise (mm);
     ``roundness``: the allowance added to 4 × ``flank_rms`` for a fit to pass (mm);
-    ``circle_rms``: the circle's arc rms (mm), which an ellipse must halve at least. Returns
-    ``{"shape": "flat"|"ellipse"|"irregular", ...}`` with 2D points (``tip``: the edge point).
+    ``circle_rms``: the circle's arc rms (mm), an ellipse's must be a fifth of it at most
+    (ELLIPSE_GAIN). Returns ``{"shape": "flat"|"ellipse"|"irregular", ...}`` with 2D points
+    (``tip``: the edge point).
     """
     st = _frame(np.asarray(points2d, float), centre, axis)
     noise = flank_rms if np.isfinite(flank_rms) else 0.0
