@@ -440,11 +440,12 @@ def test_fit_edge_ellipse_on_an_exact_tilted_edge(z):
 
 def test_fit_edge_ellipse_window_holds_at_least_six_points():
     """Sparse: only 4 points ahead of the centre; the window is the 6 foremost points (all on the
-    ellipse; the others beyond one semi-axis behind it, 2 a side at most between: no flank lines)."""
+    ellipse, the 6th at s = 0.43), from the first round on: not the two next ones (at s = 0.6, off the
+    ellipse), nor those beyond one semi-axis behind it (2 a side at most between: no flank lines)."""
     z = np.array([0.3, 0.0, 0.6, 0.3, 0.0])
     front = ell_point(z, np.array([2.2, 2.8, 3.5, 4.1]))
     behind = ell_point(z, np.array([1.35, 4.8]))
-    far = np.array([[1.2, 0.3], [1.2, -0.3], [2.0, 0.3], [2.0, -0.3]])
+    far = np.array([[0.6, 0.5], [0.6, -0.5], [2.0, 0.3], [2.0, -0.3]])
     st = np.vstack([far[:2], behind[:1], front, behind[1:], far[2:]])
     r = es.fit_edge_ellipse(st, 0.3)
     assert r is not None and r["points"] == 6
