@@ -53,7 +53,7 @@ MODULES: dict[str, tuple[str, ...]] = {
                    "--deselect tests/test_section_parameters.py::test_cli_sections_json_keys_and_plots "
                    "--deselect tests/test_section_parameters.py::test_cli_sections_with_a_section_file_nominal_and_throat "
                    "--deselect tests/test_section_parameters.py::test_sparse_plan_sections_give_chord_thickness_stagger"),
-    "edge_shape": ("bladerecon/core/sections/edge_shape.py", "tests/test_edge_shape.py"),
+    "edge_shape": ("bladerecon/core/sections/edge_shape.py", "tests/test_edge_shape_contract.py tests/test_edge_shape.py"),
     "fairing": ("bladerecon/core/sections/fairing.py", "tests/test_fairing_contract.py tests/test_fairing.py",
                 "--deselect tests/test_fairing.py::test_nasa_rotor67_design_table_has_no_bad_points "
                 "--deselect tests/test_fairing.py::test_surface_from_faired_sections_within_3um_of_the_truth"),

@@ -106,7 +106,7 @@ def find_flat(st: np.ndarray, radius: float, tol: float) -> dict | None:
         # cut it; points within tol of it are on it
         sel_new = np.abs(dist) <= tol
         if np.array_equal(sel_new, sel):
-            break
+            break                                         # the line keeps its points: settled
         sel = sel_new
     k = int(sel.sum())
     if k < MIN_FLAT_POINTS:
@@ -218,7 +218,7 @@ def _ellipse_distance(z: np.ndarray, P: np.ndarray) -> np.ndarray:
         step = f / np.where(np.abs(fp) > 1e-300, fp, 1e-300)
         e = e - np.clip(step, -0.5, 0.5)
         if np.abs(step).max() < 1e-14:
-            break
+            break                                         # the foot has converged
     dist = np.hypot(u - a * np.cos(e), v - b * np.sin(e))
     inside = (u / a) ** 2 + (v / b) ** 2 < 1.0
     return np.where(inside, -dist, dist)
@@ -265,7 +265,7 @@ def fit_edge_ellipse(st: np.ndarray, radius: float, max_rounds: int = 12) -> dic
             return None
         new = st[:, 0] <= max(float(z[0]), float(np.sort(st[:, 0])[min(MIN_ELLIPSE_POINTS, len(st)) - 1]))
         if np.array_equal(new, sel):
-            break
+            break                                         # the window stays: settled
         sel = new
     else:
         return None
@@ -292,8 +292,9 @@ def edge_shape(points2d: np.ndarray, centre: np.ndarray, radius: float, axis: np
     ``points2d`` (n, 2): the section's points; ``centre``, ``radius``, ``axis``: its edge circle
     and the camber line's tangent there (into the blade); ``flank_rms``: the flanks' noise (mm);
     ``roundness``: the allowance added to 4 × ``flank_rms`` for a fit to pass (mm);
-    ``circle_rms``: the circle's arc rms (mm), which an ellipse must halve at least. Returns
-    ``{"shape": "flat"|"ellipse"|"irregular", ...}`` with 2D points (``tip``: the edge point).
+    ``circle_rms``: the circle's arc rms (mm), an ellipse's must be a fifth of it at most
+    (ELLIPSE_GAIN). Returns ``{"shape": "flat"|"ellipse"|"irregular", ...}`` with 2D points
+    (``tip``: the edge point).
     """
     st = _frame(np.asarray(points2d, float), centre, axis)
     noise = flank_rms if np.isfinite(flank_rms) else 0.0
