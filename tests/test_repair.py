@@ -370,3 +370,49 @@ def test_reversed_flow_calls_the_eroded_edge_the_trailing_edge(case, cloud_resul
     le = max(r["max_depth_mm"] for r in cloud_result.regions if r["kind"] == "leading_edge")
     te = max(r["max_depth_mm"] for r in res.regions if r["kind"] == "trailing_edge")
     assert abs(te - le) < 1e-9 and abs(res.volume_mm3 - cloud_result.volume_mm3) < 1e-9
+
+
+def _gcv_direct(N, rhs, K, x0, signed, A, w):
+    """Referee for the GCV lambda search: every trial lambda solved directly (numpy)."""
+    scale, m, best = np.trace(N) / np.trace(K), float(w.sum()), None
+    for lam in scale * np.logspace(-8, 2, 21):
+        M = N + lam * K
+        dx = np.linalg.solve(M, rhs - lam * K @ x0)
+        res = signed - A @ dx
+        edf = float(np.trace(np.linalg.solve(M, N)))
+        g = m * float((w * res * res).sum()) / max(m - edf, 1.0) ** 2
+        if best is None or g < best[0]:
+            best = (g, x0 + dx, lam, edf)
+    return best[1:]
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_gcv_lambda_search_equals_solving_every_lambda(seed):
+    """The shared-factorisation lambda search of the deformation fit picks the lambda, the
+    coefficients and the degrees of freedom that solving each trial directly gives (round-off),
+    on weighted random least squares with a second-difference penalty; a rank-deficient normal
+    matrix (no Cholesky factor) takes the direct path."""
+    from bladerecon.core.repair.deformation import _gcv_solve
+
+    rng = np.random.default_rng(seed)
+    n, k = 40, 300
+    A = rng.normal(size=(k, n))
+    w = rng.uniform(0.0, 1.0, k)
+    signed = A @ rng.normal(size=n) + rng.normal(scale=0.3, size=k)
+    N = A.T @ (w[:, None] * A) + 1e-9 * np.eye(n)
+    D2 = np.diff(np.eye(n), 2, axis=0)
+    K = D2.T @ D2
+    x0 = 0.1 * rng.normal(size=n)
+    rhs = A.T @ (w * signed)
+    x, lam, edf = _gcv_solve(N, rhs, K, x0, signed, A, w)
+    xr, lamr, edfr = _gcv_direct(N, rhs, K, x0, signed, A, w)
+    assert lam == lamr
+    np.testing.assert_allclose(x, xr, rtol=0, atol=1e-9 * np.abs(xr).max())
+    assert edf == pytest.approx(edfr, rel=1e-12)
+    # rank-deficient: the last column never seen by the data, K keeps the system solvable
+    A[:, -1] = 0.0
+    N = A.T @ (w[:, None] * A)
+    rhs = A.T @ (w * signed)
+    x, lam, edf = _gcv_solve(N, rhs, K, x0, signed, A, w)
+    xr, lamr, edfr = _gcv_direct(N, rhs, K, x0, signed, A, w)
+    assert lam == lamr and np.allclose(x, xr, atol=1e-9 * np.abs(xr).max()) and edf == pytest.approx(edfr, rel=1e-9)
