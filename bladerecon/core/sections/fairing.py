@@ -72,6 +72,10 @@ class SectionFairing:
 
 def _fit(points: np.ndarray, t: np.ndarray, w: np.ndarray, knots: np.ndarray,
          smoothing: float) -> BSplineCurve:
+    """Periodic cubic on ``knots`` minimising ``Σ w_i |C(t_i) - p_i|² + λ ∫|C''|²`` with
+    ``λ = smoothing · tr(AᵀWA) / tr(E)`` (A the collocation matrix, E the Gram matrix of the
+    second derivatives): the strain energy weighted relative to the data term, so that
+    scaling every weight leaves the curve as it is."""
     mults = np.ones(knots.size, dtype=int)
     n_poles = knots.size - 1
     A = collocation_matrix(knots, mults, 3, True, n_poles, t)
