@@ -434,3 +434,85 @@ def test_fit_is_the_penalised_least_squares_curve_of_a_scipy_reference(smoothing
     assert np.abs(evaluate_curve(curve, u) - ref).max() < 1e-9
     # the smoothing is relative to the data term: scaling every weight changes nothing
     assert np.abs(evaluate_curve(fr._fit(P, t, 7.0 * w, knots, smoothing), u) - ref).max() < 1e-9
+
+
+# --------------------------------------------------------------------------- turning, by brute force
+def rounded_rectangle(W, H, rc, h, start=0.3):
+    """A W x H rectangle with quarter-circle corners of radius rc, sampled every h mm of arc
+    length (to the nearest whole number of steps round the loop), counter-clockwise from
+    ``start`` steps past the left end of the bottom side (closed form). Returns (points, step)."""
+    pieces = []                  # (length, start point, start direction angle, radius or 0)
+    x0, y0 = -W / 2 + rc, -H / 2
+    for side, (lx, ang) in enumerate(((W - 2 * rc, 0.0), (H - 2 * rc, np.pi / 2), (W - 2 * rc, np.pi),
+                                      (H - 2 * rc, 1.5 * np.pi))):
+        pieces.append((lx, (x0, y0), ang, 0.0))
+        x0, y0 = x0 + lx * np.cos(ang), y0 + lx * np.sin(ang)
+        pieces.append((0.5 * np.pi * rc, (x0, y0), ang, rc))
+        cx, cy = x0 - rc * np.sin(ang), y0 + rc * np.cos(ang)
+        x0, y0 = cx + rc * np.sin(ang + np.pi / 2), cy - rc * np.cos(ang + np.pi / 2)
+    per = sum(p[0] for p in pieces)
+    n = int(round(per / h))
+    s = (start + np.arange(n)) * per / n
+    P = np.zeros((n, 3))
+    ends = np.cumsum([p[0] for p in pieces])
+    for i, si in enumerate(s):
+        j = int(np.searchsorted(ends, si, side="right"))
+        length, (px, py), ang, rad = pieces[j]
+        d = si - (ends[j] - length)
+        if rad == 0.0:
+            P[i, :2] = [px + d * np.cos(ang), py + d * np.sin(ang)]
+        else:
+            cx, cy = px - rad * np.sin(ang), py + rad * np.cos(ang)
+            a = ang - np.pi / 2 + d / rad
+            P[i, :2] = [cx + rad * np.cos(a), cy + rad * np.sin(a)]
+    return P, per / n
+
+
+def brute_turning(P, k, w):
+    """Turning a step: the angle between the chords P[i-k]->P[i] and P[i]->P[i+k] (atan2 of
+    their cross and dot products), over k; then scipy's running median over w points."""
+    from scipy.ndimage import median_filter
+
+    a = np.roll(P, -k, axis=0) - P
+    b = P - np.roll(P, k, axis=0)
+    ang = np.arctan2(np.linalg.norm(np.cross(b, a), axis=1), np.einsum("ij,ij->i", a, b)) / k
+    return median_filter(ang, size=w, mode="wrap")
+
+
+@pytest.mark.parametrize("W,H,rc,h,k", [
+    (60.0, 30.0, 6.0, 2.0, 1),        # sparse: chords of one step (0.5 / 2 rounds to 0, at least 1)
+    (8.0, 5.0, 0.5, 0.05, 10),        # 0.5 mm chords = 10 steps: window 21 = 2k + 1
+    (8.0, 5.0, 0.5, 0.03125, 16),     # 16 steps: window 2k + 1 = 33 > 21
+])
+def test_turning_is_the_running_median_of_the_turning_over_half_millimetre_chords(W, H, rc, h, k):
+    # the straight sides hold most of the steps, so the median step is the arc-length step;
+    # 0.5 mm over it rounds to k (not near a half). Each corner turns over fewer points than
+    # the window: the running median's width shows
+    P, step = rounded_rectangle(W, H, rc, h)
+    assert 2 * (W + H - 4 * rc) > 2 * np.pi * rc
+    assert max(1, round(0.5 / step)) == k and abs(0.5 / step - round(0.5 / step)) < 0.3
+    got = fr._robust_turning(P)
+    want = brute_turning(P, k, max(21, 2 * k + 1))
+    # the two angle formulas agree to rounding: arccos near 1 loses half the digits (1e-8)
+    assert np.abs(got - want).max() < 1e-7
+    assert np.isclose(np.median(got), 0.0, atol=1e-7)            # the sides are straight
+    assert 0.1 * step / rc < got.max() <= step / rc * (1 + 1e-9)   # chords over an arc turn h/rc a step
+
+
+def test_turning_chords_span_at_most_an_eighth_of_a_small_loop():
+    # 48 points round a 2.26 mm stadium: 0.5 mm chords would be 10 steps, the cap 48 // 8 = 6
+    P, h = rounded_rectangle(0.9, 0.4, 0.2, (1.0 + 0.4 * np.pi) / 48)
+    assert P.shape[0] == 48 and round(0.5 / h) > 6
+    assert np.abs(fr._robust_turning(P) - brute_turning(P, 6, 21)).max() < 1e-7
+
+
+def test_turning_is_finite_where_the_chords_are_parallel_or_reversed():
+    # a needle: 30 mm out along a line at 0.3 rad and back, a point every 2 mm (k = 1). The
+    # chords along it are parallel (cosine 1, or a rounding past it) and at the two tips
+    # reversed (cosine -1, or past it); the turning is 0 along the line, and the running
+    # median over 21 of the 30 points hides the two single tips
+    d = np.array([np.cos(0.3), np.sin(0.3), 0.0])
+    P = np.vstack([np.arange(16)[:, None] * 2.0 * d, np.arange(14, 0, -1)[:, None] * 2.0 * d])
+    got = fr._robust_turning(P)
+    assert np.all(np.isfinite(got))
+    assert np.abs(got - brute_turning(P, 1, 21)).max() < 1e-7 and np.abs(got).max() < 1e-7

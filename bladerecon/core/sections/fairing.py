@@ -102,7 +102,12 @@ def edge_zones(points: np.ndarray, fraction: float = 0.04) -> np.ndarray:
 def _robust_turning(P: np.ndarray, window: int = 21, baseline: float = 0.5) -> np.ndarray:
     """Turning (rad) per point step of a closed loop, measured over chords of about
     ``baseline`` mm (so that noise on dense points does not read as turning), running
-    median over ``window`` points (so that a short run of bad points does not either)."""
+    median over ``window`` points (so that a short run of bad points does not either).
+
+    The chords span k = round(baseline / median step) steps, at least 1 and at most an
+    eighth of the points; the turning at a point is the angle between the chords that end
+    and start there, over k; the median window is centred, of max(window, 2k + 1) points
+    (at most all of them)."""
     n = P.shape[0]
     h = float(np.median(np.linalg.norm(np.roll(P, -1, axis=0) - P, axis=1)))
     k = int(max(1, min(n // 8, round(baseline / max(h, 1e-300)))))
