@@ -516,3 +516,105 @@ def test_turning_is_finite_where_the_chords_are_parallel_or_reversed():
     got = fr._robust_turning(P)
     assert np.all(np.isfinite(got))
     assert np.abs(got - brute_turning(P, 1, 21)).max() < 1e-7 and np.abs(got).max() < 1e-7
+
+
+# --------------------------------------------------------------------------- knot rules, by hand
+def test_edge_zones_of_fraction_zero_are_empty():
+    # fraction 0 switches the one-knot-a-point rule off (the knot tests below): not even the
+    # two extreme points are "within 0 of the chord from an end" in the strict sense used
+    for angle in (0.0, 0.6):
+        P, _ = ellipse(angle=angle)
+        assert not fr.edge_zones(P, 0.0).any()
+
+
+def test_density_knots_take_every_point_whatever_the_first_parameter():
+    # density 1: a knot at every point, also when no point sits at parameter 0 (a caller's t)
+    t = (np.arange(50) + 0.5) / 50
+    assert np.allclose(fr._density_knots(t, np.ones(50)), np.concatenate([[0.0], t, [1.0]]), atol=0)
+
+
+def test_density_knots_ignore_parameters_outside_the_period():
+    # periodic knots live in [0, 1]: parameters a caller took past the period give none
+    t = np.array([-0.1, 0.0, 0.2, 0.5, 1.3, 1.6])
+    k = fr._density_knots(t, np.ones(t.size))
+    assert np.array_equal(k, np.array([0.0, 0.2, 0.5, 1.0]))
+
+
+def arc_blocks(long_step, short_step, shorts, blocks):
+    """A circle whose points come in blocks: one step of ``long_step`` mm, then ``shorts``
+    steps of ``short_step`` mm (so the circle's radius follows)."""
+    steps = np.tile(np.concatenate([[long_step], np.full(shorts, short_step)]), blocks)
+    R = steps.sum() / (2 * np.pi)
+    th = np.concatenate([[0.0], np.cumsum(steps)[:-1]]) / R
+    return np.column_stack([R * np.cos(th), R * np.sin(th), np.zeros(th.size)])
+
+
+def test_a_long_step_asks_for_one_knot_at_its_point_not_more():
+    # 20 blocks of one 6 mm step (asks 6 / 4 = 1.5 knots: a point holds one) and five 0.3 mm
+    # steps (0.075 a point, under the 1 / points_per_pole = 0.1 of the flanks). With every
+    # point's density at most 1 each whole number the cumulative density passes is a knot of
+    # its own: 20 · (1 + 5 · 0.1) = 30 knots; turning and edge rules off
+    P = arc_blocks(6.0, 0.3, 5, 20)
+    curve, _, _ = fr.fair_fit(P, knot_turn=1e9, edge_fraction=0.0)
+    assert abs(curve.n_poles - 30) <= 1, curve.n_poles
+
+
+def test_the_arc_rule_asks_a_knot_per_4_mm_by_default():
+    # 300 steps of 0.6 mm: 0.6 / 4 = 0.15 knots a point (above the flanks' 0.1): 45 knots
+    P = arc_blocks(0.6, 0.6, 0, 300)
+    curve, _, _ = fr.fair_fit(P, knot_turn=1e9, edge_fraction=0.0)
+    assert abs(curve.n_poles - 45) <= 1, curve.n_poles
+
+
+def test_points_of_weight_zero_carry_no_knot():
+    # in an edge zone every point carries a knot, except those of weight zero (knots at data
+    # that counts: every span keeps data, Schoenberg-Whitney)
+    P, _ = ellipse(200)
+    t = np.arange(200) / 200
+    zone = np.flatnonzero(fr.edge_zones(P))
+    w = np.ones(200)
+    out = zone[2:5]
+    w[out] = 0.0
+    curve, _, _ = fr.fair_fit(P, w, t=t, knot_turn=1e9)
+    assert not np.isin(t[out], curve.knots).any()
+    assert np.isin(t[np.setdiff1d(zone, out)], curve.knots).all()
+
+
+def test_eight_spans_from_the_density_rule_are_kept_fewer_become_eight_uniform_ones():
+    # 40 points at uneven parameters, one knot per 5 points: knots at points 0, 5, ..., 35
+    # (the cumulative density passes 1, 2, ... at them) and 1: 8 spans, not the uniform ones
+    P, _ = circle(40)
+    t = (np.arange(40) / 40) ** 1.3
+    c8, _, _ = fr.fair_fit(P, t=t, knot_turn=1e9, knot_length=1e9, points_per_pole=5, edge_fraction=0.0)
+    assert np.allclose(c8.knots, np.concatenate([t[::5], [1.0]]), atol=1e-15)
+    # one per 6 points: 7 spans, too few: 8 uniform spans of the period [0, 1] instead
+    c7, _, d = fr.fair_fit(P, t=t, knot_turn=1e9, knot_length=1e9, points_per_pole=6, edge_fraction=0.0)
+    assert np.array_equal(c7.knots, np.linspace(0.0, 1.0, 9))
+
+
+def test_describe_runs_counts_from_the_end_nearer_the_first_point_wherever_the_section_lies():
+    # an ellipse far from the origin, turned, started at either end or just either side of
+    # the middle of the chord: the chord fraction of a point is its distance from the end
+    # nearer the first point along the major axis over the major axis (closed form)
+    a, b = 20.0, 3.0
+    for angle in (0.0, 0.4, 2.0, -1.1):
+        for th0 in (0.0, np.pi, 0.5 * np.pi - 0.004, 0.5 * np.pi + 0.004, 1.5 * np.pi + 0.004):
+            th = th0 + np.linspace(0, 2 * np.pi, 400, endpoint=False)
+            x = a * np.cos(th)
+            P = np.column_stack([x, b * np.sin(th), np.zeros(400)])
+            R = np.array([[np.cos(angle), -np.sin(angle), 0], [np.sin(angle), np.cos(angle), 0], [0, 0, 1]])
+            P = P @ R.T + [150.0, -80.0, 40.0]
+            frac = (x + a) / (2 * a) if x[0] < 0 else (a - x) / (2 * a)
+            bad = np.zeros(400, bool)
+            bad[[0, 1, 150]] = True
+            disp = np.zeros(400)
+            disp[[0, 1, 150]] = [0.0123456789, 0.02, 0.0031415926]
+            runs = sorted(fr.describe_runs(P, bad, disp), key=lambda r: r["first_line"])
+            # fractions to 4 decimals, displacements to the nanometre (6 decimals of a mm)
+            assert runs == [
+                {"first_line": 0, "last_line": 1, "points": 2,
+                 "chord_fraction": [round(float(frac[0]), 4), round(float(frac[1]), 4)], "displacement_mm": 0.02},
+                {"first_line": 150, "last_line": 150, "points": 1,
+                 "chord_fraction": [round(float(frac[150]), 4)] * 2, "displacement_mm": 0.003142}], (angle, th0, runs)
+            # counted from the end nearer the first point: its own fraction is at most a half
+            assert frac[0] <= 0.5

@@ -125,7 +125,7 @@ def _density_knots(t: np.ndarray, density: np.ndarray) -> np.ndarray:
     passes a whole number (eq. 9.69 with a weight per point): a knot at every point where
     the density is 1, at every 1/density-th point elsewhere. Knots at data parameters keep
     every span supported by data (Schoenberg-Whitney), even where the knots are as dense
-    as the points."""
+    as the points. Parameters outside the period [0, 1] give no knot."""
     order = np.argsort(t)
     ts, ds = t[order], density[order]
     cum = np.cumsum(ds)
@@ -367,8 +367,8 @@ def fair_section(points: np.ndarray, threshold: float = DEFAULT_THRESHOLD,
 def describe_runs(points: np.ndarray, bad: np.ndarray, displacement: np.ndarray,
                   lines: np.ndarray | None = None) -> list[dict]:
     """Where each run of bad points of one closed, ordered section is: its first and last
-    line (or index), number of points, the chord fraction of its first and last point and
-    its largest displacement (mm).
+    line (or index), number of points, the chord fraction of its first and last point (to 4
+    decimals) and its largest displacement (mm, to the nanometre).
 
     The chord fraction is measured along the section's principal direction, 0 at the end
     nearer the section's first point (the reconstruction's leading edge when the points
