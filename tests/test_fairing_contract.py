@@ -618,3 +618,56 @@ def test_describe_runs_counts_from_the_end_nearer_the_first_point_wherever_the_s
                  "chord_fraction": [round(float(frac[150]), 4)] * 2, "displacement_mm": 0.003142}], (angle, th0, runs)
             # counted from the end nearer the first point: its own fraction is at most a half
             assert frac[0] <= 0.5
+
+
+# --------------------------------------------------------------------------- the auxiliary cubic, by scipy
+def aux_reference(curve, t, a2, a1, b1, b2, k):
+    """Seed 001's auxiliary cubic as replace_runs documents it, built by scipy: through the
+    feet Q of a2, a1, b1, b2 on ``curve`` at chord-length parameters u in [0, 1], first
+    derivatives at a2 and b2 along the curve's tangent with length L (the chord length of the
+    four), knots by averaging (NURBS Book §9.2.2: 0⁴, (u0+u1+u2)/3, (u1+u2+u3)/3, 1⁴); the k
+    new points at equal parameter steps strictly between a1 and b1."""
+    from scipy.interpolate import make_interp_spline
+
+    from bladerecon.core.geometry.bspline import curve_derivatives
+
+    Q = evaluate_curve(curve, t[[a2, a1, b1, b2]])
+    c = np.linalg.norm(np.diff(Q, axis=0), axis=1)
+    L = c.sum()
+    u = np.concatenate([[0.0], np.cumsum(c)]) / L
+    tan = curve_derivatives(curve, t[[a2, b2]], 1)[:, 1]
+    tan = L * tan / np.linalg.norm(tan, axis=1, keepdims=True)
+    knots = np.concatenate([[0.0] * 4, [u[:3].mean(), u[1:].mean()], [1.0] * 4])
+    spl = make_interp_spline(u, Q, k=3, t=knots, bc_type=([(1, tan[0])], [(1, tan[1])]))
+    return spl(u[1] + (u[2] - u[1]) * np.arange(1, k + 1) / (k + 1))
+
+
+def test_replaced_runs_are_the_auxiliary_cubics_of_their_two_nearest_good_neighbours():
+    # three runs on the ellipse: one across the loop's end, two one good point apart (each
+    # then reaches past the other for its second neighbour)
+    P, nrm = flank_section()
+    bad = np.zeros(400, bool)
+    bad[[398, 399, 0, 100, 101, 102, 104, 105]] = True
+    Pb = P.copy()
+    Pb[bad] += 0.02 * nrm[bad]
+    curve, t, _ = fr.fair_fit(Pb, (~bad).astype(float), t=fr.chord_parameters_of_good(Pb, bad))
+    out = fr.replace_runs(Pb, bad, curve, t)
+    # neighbours counted by hand: (a2, a1 | b1, b2) for each run
+    for run, (a2, a1, b1, b2) in (([398, 399, 0], (396, 397, 1, 2)), ([100, 101, 102], (98, 99, 103, 106)),
+                                  ([104, 105], (99, 103, 106, 107))):
+        want = aux_reference(curve, t, a2, a1, b1, b2, len(run))
+        # the same interpolation solved twice in double precision on a 20 mm section
+        assert np.abs(out[run] - want).max() < 1e-10, run
+    assert np.array_equal(out[~bad], Pb[~bad])
+
+
+def test_four_good_points_are_enough_to_replace_the_rest():
+    # 20 points, 4 good: every run's auxiliary cubic runs through all four
+    P, _ = flank_section(20)
+    bad = np.ones(20, bool)
+    bad[[0, 5, 10, 15]] = False
+    curve, t, _ = fr.fair_fit(P)
+    out = fr.replace_runs(P, bad, curve, t)
+    assert np.abs(out[1:5] - aux_reference(curve, t, 15, 0, 5, 10, 4)).max() < 1e-10
+    assert np.abs(out[16:20] - aux_reference(curve, t, 10, 15, 0, 5, 4)).max() < 1e-10
+    assert np.array_equal(out[~bad], P[~bad])
