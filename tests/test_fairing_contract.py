@@ -671,3 +671,34 @@ def test_four_good_points_are_enough_to_replace_the_rest():
     assert np.abs(out[1:5] - aux_reference(curve, t, 15, 0, 5, 10, 4)).max() < 1e-10
     assert np.abs(out[16:20] - aux_reference(curve, t, 10, 15, 0, 5, 4)).max() < 1e-10
     assert np.array_equal(out[~bad], P[~bad])
+
+
+def test_fairing_refuses_where_the_auxiliary_cubic_strays_more_than_five_thresholds():
+    # a 10 mm circle, a point every 0.9° except a stretch of 7 points 15° apart, the middle
+    # one 0.1 mm out: around it the points are too sparse for the auxiliary cubic to follow
+    # the fair fit of the good points. The stray (brute force: the replaced points against
+    # 200 001 samples of that fit, 0.3 µm apart, so within 0.3²/8/R ≈ 1e-9 mm and a nearest-
+    # sample error ~(0.15 µm)²/(2·stray) ≈ 3e-7 mm) decides against AUX_AGREEMENT = 5
+    # thresholds, here at 0.008 mm, where the stray is 5-6 thresholds
+    from scipy.spatial import cKDTree
+
+    R, thr = 10.0, 0.008
+    dense = np.deg2rad(np.arange(0.0, 360.0 - 7 * 15.0, 0.9))
+    sparse = np.deg2rad(360.0 - 7 * 15.0 + 15.0 * np.arange(7))
+    th = np.concatenate([dense, sparse])
+    P = np.column_stack([R * np.cos(th), R * np.sin(th), np.zeros(th.size)])
+    P[dense.size + 3] *= 1.0 + 0.1 / R
+    bad, _, curve, t = fr.detect_bad_points(P, thr, edges=False)
+    idx = np.flatnonzero(bad)
+    assert dense.size + 3 in idx
+    out = fr.replace_runs(P, bad, curve, t)
+    stray = cKDTree(evaluate_curve(curve, np.linspace(0, 1, 200001))).query(out[idx])[0]
+    assert 5.0 * thr < stray.max() < 6.0 * thr, stray.max() / thr
+    with pytest.raises(BladeReconError) as e:
+        fr.fair_section(P, thr, name="S9", edges=False)
+    m = re.fullmatch(r"fairing refused: section S9, the auxiliary curve at point (\d+) strays (\d\.\d{4}) mm from the "
+                     r"fair fit of the good points \(points around it too sparse or too uneven to rebuild it\): "
+                     r"raise --fair-threshold or leave this data unfaired", str(e.value))
+    assert m, str(e.value)
+    assert int(m.group(1)) == idx[np.argmax(stray)]
+    assert abs(float(m.group(2)) - stray.max()) <= 5e-5 + 1e-6        # printed to 0.1 µm
