@@ -702,3 +702,43 @@ def test_fairing_refuses_where_the_auxiliary_cubic_strays_more_than_five_thresho
     assert m, str(e.value)
     assert int(m.group(1)) == idx[np.argmax(stray)]
     assert abs(float(m.group(2)) - stray.max()) <= 5e-5 + 1e-6        # printed to 0.1 µm
+
+
+# --------------------------------------------------------------------------- the quarter rule and its message
+def test_a_quarter_of_the_points_bad_is_still_fairable_one_more_is_not():
+    # a 10 mm circle, every fourth point 20 µm out: a fit with a knot per 20 points (turning
+    # and edge rules off) cannot follow a bump per 4 points, it rises by their mean, 5 µm.
+    # The bumps then sit 15 µm off, the others 5 µm: above the 3 µm threshold but under half
+    # the worst, so the first round rejects exactly the bumps, 100 of 400: a quarter, not
+    # more than a quarter. One more bump next to one of them: 101, more than a quarter
+    R, n = 10.0, 400
+    th = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    P = np.column_stack([R * np.cos(th), R * np.sin(th), np.zeros(n)])
+    opts = dict(edges=False, edge_fraction=0.0, knot_turn=1e9, points_per_pole=20)
+    for extra in ([], [2]):
+        sel = np.concatenate([np.arange(0, n, 4), extra]).astype(int)
+        Q = P.copy()
+        Q[sel] *= 1.0 + 0.02 / R
+        if not extra:
+            bad = fr.detect_bad_points(Q, **opts)[0]
+            assert np.array_equal(np.flatnonzero(bad), np.sort(sel))
+        else:
+            with pytest.raises(BladeReconError, match="more than a quarter"):
+                fr.detect_bad_points(Q, **opts)
+
+
+def test_the_quarter_message_prints_threshold_and_median_distance_in_micrometres():
+    # a 10 mm circle with its points alternately 0.2 mm out and in: the fit (a knot per 10
+    # points, turning and edge rules off) cannot follow an alternation of period 2 points, it
+    # is the circle, every point 0.2 mm from it; every point is rejected at once. The median
+    # distance is then 200 µm (the fit's leftover ripple is orders under the 0.05 µm the
+    # message's decimal resolves), the threshold 60 µm; the suggestion 5 × 0.2 mm
+    R, n, dl = 10.0, 400, 0.2
+    th = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    r = R + dl * np.where(np.arange(n) % 2 == 0, 1.0, -1.0)
+    P = np.column_stack([r * np.cos(th), r * np.sin(th), np.zeros(n)])
+    with pytest.raises(BladeReconError) as e:
+        fr.detect_bad_points(P, 0.06, name="S1", edges=False, edge_fraction=0.0, knot_turn=1e9)
+    assert str(e.value) == ("section S1: more than a quarter of the points are farther than 60.0 µm from a fair "
+                            "curve (median distance 200.0 µm): the threshold is below this data's noise; "
+                            "try --fair-threshold 1.000")
