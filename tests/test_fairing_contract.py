@@ -742,3 +742,31 @@ def test_the_quarter_message_prints_threshold_and_median_distance_in_micrometres
     assert str(e.value) == ("section S1: more than a quarter of the points are farther than 60.0 µm from a fair "
                             "curve (median distance 200.0 µm): the threshold is below this data's noise; "
                             "try --fair-threshold 1.000")
+
+
+def test_noisy_circular_edges_are_judged_against_the_noise_of_the_flanks():
+    # a 40 x 2 mm stadium (semicircular edges of radius 1 mm tangent to straight flanks,
+    # seed 004's round edge exactly), a point every 0.2 mm, each moved along its normal by
+    # N(0, 0.8 µm) noise. The edge model may miss its clean points by 1.5 × the flanks' noise
+    # about the fair fit (~0.8 µm): both edges are judged, nothing is flagged (the noise
+    # stays under the 3 µm threshold: 3.75 σ). Judged by the noise of the edge zones instead,
+    # where the fair fit has a knot a point and follows the noise, they would not be
+    P, _ = rounded_rectangle(40.0, 2.0, 1.0, 0.2)
+    T = np.roll(P, -1, axis=0) - np.roll(P, 1, axis=0)
+    N = np.column_stack([T[:, 1], -T[:, 0], np.zeros(len(P))])
+    N /= np.linalg.norm(N, axis=1, keepdims=True)
+    sigma = 0.0008
+    e = np.random.default_rng(1).normal(0.0, sigma, len(P))
+    Q = P + e[:, None] * N
+    s = fr.fair_section(Q)
+    assert [j.judged for j in s.edges] == [True, True] and not s.bad.any()
+    # detect_bad_points judges the edges too by default: in the edge zones its distances are
+    # those to the edge model, a circle and two flanks of 11 numbers over ~40 points a zone,
+    # which keeps the noise: |d| - |e| has an rms about σ √(11/40) ≈ 0.52 σ (the fair fit,
+    # a knot a point there, would follow the noise: d ≈ 0, rms ≈ σ)
+    from bladerecon.core.sections.edge_bad_points import EDGE_FRACTION
+
+    zone = fr.edge_zones(P, EDGE_FRACTION)
+    bad, d, _, _ = fr.detect_bad_points(Q)
+    assert not bad.any()
+    assert np.sqrt(np.mean((d[zone] - np.abs(e[zone])) ** 2)) < 0.65 * sigma
