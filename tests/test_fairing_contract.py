@@ -372,3 +372,401 @@ def test_edge_runs_go_to_the_edge_model_and_flank_runs_to_the_fair_fit():
     alone = fr.fair_section(Q, edges=False)
     assert not alone.bad[le_run].all()
 
+
+
+# --------------------------------------------------------------------------- the record
+def test_section_fairing_is_a_frozen_record_whose_edge_fields_are_optional():
+    import dataclasses
+
+    P, _ = flank_section(40)
+    z = np.zeros(40)
+    s = fr.SectionFairing(P, P.copy(), z.astype(bool), z, z, ())
+    # built without the edge fields (as a caller without the edge model does): none judged
+    assert s.by_edge_model is None and s.edges == ()
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        s.runs = ((0, 1),)
+
+
+# --------------------------------------------------------------------------- the weighted, smoothed solve
+def _periodic_reference_fit(points, t, w, knots, smoothing):
+    """The fit _fit documents, built on scipy's B-splines: minimise Σ w_i |C(t_i) - p_i|²
+    + λ ∫_0^1 |C''|² over periodic cubics on ``knots``, λ = smoothing · tr(AᵀWA) / tr(E)
+    (A the collocation matrix, E the Gram matrix of the second derivatives). The periodic
+    basis is the clamped-free basis on the knots continued by one period each way, its last
+    three functions folded onto the first three; E by 2-point Gauss-Legendre per span
+    (exact: B'' is linear on a span). Returns a callable u -> C(u)."""
+    from scipy.interpolate import BSpline
+
+    m = knots.size - 1
+    T = np.concatenate([knots[m - 3:m] - 1.0, knots, knots[1:4] + 1.0])
+    nb = T.size - 4                                      # m + 3 functions, the last 3 = the first 3
+    fold = np.zeros((nb, m))
+    fold[np.arange(m), np.arange(m)] = 1.0
+    fold[m + np.arange(3), np.arange(3)] = 1.0
+    A = BSpline.design_matrix(np.mod(t, 1.0), T, 3).toarray() @ fold
+    gx, gw = np.polynomial.legendre.leggauss(2)
+    a, h = knots[:-1], np.diff(knots)
+    ug = (a[:, None] + 0.5 * h[:, None] * (gx + 1.0)).ravel()
+    wg = (0.5 * h[:, None] * gw).ravel()
+    D2 = np.column_stack([BSpline(T, np.eye(nb)[j], 3).derivative(2)(ug) for j in range(nb)]) @ fold
+    E = D2.T @ (wg[:, None] * D2)
+    AtWA = A.T @ (w[:, None] * A)
+    lam = smoothing * np.trace(AtWA) / np.trace(E)
+    poles = np.linalg.solve(AtWA + lam * E, A.T @ (w[:, None] * points))
+    coef = np.vstack([poles, poles[:3]])
+    return lambda u: BSpline(T, coef, 3)(np.mod(u, 1.0))
+
+
+@pytest.mark.parametrize("smoothing", [0.0, 1e-6, 1e-2])
+def test_fit_is_the_penalised_least_squares_curve_of_a_scipy_reference(smoothing):
+    # an ellipse at uneven parameters, uneven knots, weights 0, 1 and 2
+    rng = np.random.default_rng(5)
+    P, _ = flank_section(120)
+    t = np.sort(rng.uniform(0, 1, 120))
+    t[0] = 0.0
+    knots = np.concatenate([[0.0], np.sort(rng.choice(t[1:], 24, replace=False)), [1.0]])
+    w = rng.choice([0.0, 1.0, 2.0], 120, p=[0.1, 0.6, 0.3])
+    curve = fr._fit(P, t, w, knots, smoothing)
+    u = np.linspace(0, 1, 1000, endpoint=False)
+    ref = _periodic_reference_fit(P, t, w, knots, smoothing)(u)
+    # both solve the same well-posed system in double precision: agreement to ~1e-12 of the
+    # 20 mm size, 1e-9 mm leaves the conditioning of the uneven knots room
+    assert np.abs(evaluate_curve(curve, u) - ref).max() < 1e-9
+    # the smoothing is relative to the data term: scaling every weight changes nothing
+    assert np.abs(evaluate_curve(fr._fit(P, t, 7.0 * w, knots, smoothing), u) - ref).max() < 1e-9
+
+
+# --------------------------------------------------------------------------- turning, by brute force
+def rounded_rectangle(W, H, rc, h, start=0.3):
+    """A W x H rectangle with quarter-circle corners of radius rc, sampled every h mm of arc
+    length (to the nearest whole number of steps round the loop), counter-clockwise from
+    ``start`` steps past the left end of the bottom side (closed form). Returns (points, step)."""
+    pieces = []                  # (length, start point, start direction angle, radius or 0)
+    x0, y0 = -W / 2 + rc, -H / 2
+    for side, (lx, ang) in enumerate(((W - 2 * rc, 0.0), (H - 2 * rc, np.pi / 2), (W - 2 * rc, np.pi),
+                                      (H - 2 * rc, 1.5 * np.pi))):
+        pieces.append((lx, (x0, y0), ang, 0.0))
+        x0, y0 = x0 + lx * np.cos(ang), y0 + lx * np.sin(ang)
+        pieces.append((0.5 * np.pi * rc, (x0, y0), ang, rc))
+        cx, cy = x0 - rc * np.sin(ang), y0 + rc * np.cos(ang)
+        x0, y0 = cx + rc * np.sin(ang + np.pi / 2), cy - rc * np.cos(ang + np.pi / 2)
+    per = sum(p[0] for p in pieces)
+    n = int(round(per / h))
+    s = (start + np.arange(n)) * per / n
+    P = np.zeros((n, 3))
+    ends = np.cumsum([p[0] for p in pieces])
+    for i, si in enumerate(s):
+        j = int(np.searchsorted(ends, si, side="right"))
+        length, (px, py), ang, rad = pieces[j]
+        d = si - (ends[j] - length)
+        if rad == 0.0:
+            P[i, :2] = [px + d * np.cos(ang), py + d * np.sin(ang)]
+        else:
+            cx, cy = px - rad * np.sin(ang), py + rad * np.cos(ang)
+            a = ang - np.pi / 2 + d / rad
+            P[i, :2] = [cx + rad * np.cos(a), cy + rad * np.sin(a)]
+    return P, per / n
+
+
+def brute_turning(P, k, w):
+    """Turning a step: the angle between the chords P[i-k]->P[i] and P[i]->P[i+k] (atan2 of
+    their cross and dot products), over k; then scipy's running median over w points."""
+    from scipy.ndimage import median_filter
+
+    a = np.roll(P, -k, axis=0) - P
+    b = P - np.roll(P, k, axis=0)
+    ang = np.arctan2(np.linalg.norm(np.cross(b, a), axis=1), np.einsum("ij,ij->i", a, b)) / k
+    return median_filter(ang, size=w, mode="wrap")
+
+
+@pytest.mark.parametrize("W,H,rc,h,k", [
+    (60.0, 30.0, 6.0, 2.0, 1),        # sparse: chords of one step (0.5 / 2 rounds to 0, at least 1)
+    (8.0, 5.0, 0.5, 0.05, 10),        # 0.5 mm chords = 10 steps: window 21 = 2k + 1
+    (8.0, 5.0, 0.5, 0.03125, 16),     # 16 steps: window 2k + 1 = 33 > 21
+])
+def test_turning_is_the_running_median_of_the_turning_over_half_millimetre_chords(W, H, rc, h, k):
+    # the straight sides hold most of the steps, so the median step is the arc-length step;
+    # 0.5 mm over it rounds to k (not near a half). Each corner turns over fewer points than
+    # the window: the running median's width shows
+    P, step = rounded_rectangle(W, H, rc, h)
+    assert 2 * (W + H - 4 * rc) > 2 * np.pi * rc
+    assert max(1, round(0.5 / step)) == k and abs(0.5 / step - round(0.5 / step)) < 0.3
+    got = fr._robust_turning(P)
+    want = brute_turning(P, k, max(21, 2 * k + 1))
+    # the two angle formulas agree to rounding: arccos near 1 loses half the digits (1e-8)
+    assert np.abs(got - want).max() < 1e-7
+    assert np.isclose(np.median(got), 0.0, atol=1e-7)            # the sides are straight
+    assert 0.1 * step / rc < got.max() <= step / rc * (1 + 1e-9)   # chords over an arc turn h/rc a step
+
+
+def test_turning_chords_span_at_most_an_eighth_of_a_small_loop():
+    # 48 points round a 2.26 mm stadium: 0.5 mm chords would be 10 steps, the cap 48 // 8 = 6
+    P, h = rounded_rectangle(0.9, 0.4, 0.2, (1.0 + 0.4 * np.pi) / 48)
+    assert P.shape[0] == 48 and round(0.5 / h) > 6
+    assert np.abs(fr._robust_turning(P) - brute_turning(P, 6, 21)).max() < 1e-7
+
+
+def test_turning_is_finite_where_the_chords_are_parallel_or_reversed():
+    # a needle: 30 mm out along a line at 0.3 rad and back, a point every 2 mm (k = 1). The
+    # chords along it are parallel (cosine 1, or a rounding past it) and at the two tips
+    # reversed (cosine -1, or past it); the turning is 0 along the line, and the running
+    # median over 21 of the 30 points hides the two single tips
+    d = np.array([np.cos(0.3), np.sin(0.3), 0.0])
+    P = np.vstack([np.arange(16)[:, None] * 2.0 * d, np.arange(14, 0, -1)[:, None] * 2.0 * d])
+    got = fr._robust_turning(P)
+    assert np.all(np.isfinite(got))
+    assert np.abs(got - brute_turning(P, 1, 21)).max() < 1e-7 and np.abs(got).max() < 1e-7
+
+
+# --------------------------------------------------------------------------- knot rules, by hand
+def test_edge_zones_of_fraction_zero_are_empty():
+    # fraction 0 switches the one-knot-a-point rule off (the knot tests below): not even the
+    # two extreme points are "within 0 of the chord from an end" in the strict sense used
+    for angle in (0.0, 0.6):
+        P, _ = ellipse(angle=angle)
+        assert not fr.edge_zones(P, 0.0).any()
+
+
+def test_density_knots_take_every_point_whatever_the_first_parameter():
+    # density 1: a knot at every point, also when no point sits at parameter 0 (a caller's t)
+    t = (np.arange(50) + 0.5) / 50
+    assert np.allclose(fr._density_knots(t, np.ones(50)), np.concatenate([[0.0], t, [1.0]]), atol=0)
+
+
+def test_density_knots_ignore_parameters_outside_the_period():
+    # periodic knots live in [0, 1]: parameters a caller took past the period give none
+    t = np.array([-0.1, 0.0, 0.2, 0.5, 1.3, 1.6])
+    k = fr._density_knots(t, np.ones(t.size))
+    assert np.array_equal(k, np.array([0.0, 0.2, 0.5, 1.0]))
+
+
+def arc_blocks(long_step, short_step, shorts, blocks):
+    """A circle whose points come in blocks: one step of ``long_step`` mm, then ``shorts``
+    steps of ``short_step`` mm (so the circle's radius follows)."""
+    steps = np.tile(np.concatenate([[long_step], np.full(shorts, short_step)]), blocks)
+    R = steps.sum() / (2 * np.pi)
+    th = np.concatenate([[0.0], np.cumsum(steps)[:-1]]) / R
+    return np.column_stack([R * np.cos(th), R * np.sin(th), np.zeros(th.size)])
+
+
+def test_a_long_step_asks_for_one_knot_at_its_point_not_more():
+    # 20 blocks of one 6 mm step (asks 6 / 4 = 1.5 knots: a point holds one) and five 0.3 mm
+    # steps (0.075 a point, under the 1 / points_per_pole = 0.1 of the flanks). With every
+    # point's density at most 1 each whole number the cumulative density passes is a knot of
+    # its own: 20 · (1 + 5 · 0.1) = 30 knots; turning and edge rules off
+    P = arc_blocks(6.0, 0.3, 5, 20)
+    curve, _, _ = fr.fair_fit(P, knot_turn=1e9, edge_fraction=0.0)
+    assert abs(curve.n_poles - 30) <= 1, curve.n_poles
+
+
+def test_the_arc_rule_asks_a_knot_per_4_mm_by_default():
+    # 300 steps of 0.6 mm: 0.6 / 4 = 0.15 knots a point (above the flanks' 0.1): 45 knots
+    P = arc_blocks(0.6, 0.6, 0, 300)
+    curve, _, _ = fr.fair_fit(P, knot_turn=1e9, edge_fraction=0.0)
+    assert abs(curve.n_poles - 45) <= 1, curve.n_poles
+
+
+def test_points_of_weight_zero_carry_no_knot():
+    # in an edge zone every point carries a knot, except those of weight zero (knots at data
+    # that counts: every span keeps data, Schoenberg-Whitney)
+    P, _ = ellipse(200)
+    t = np.arange(200) / 200
+    zone = np.flatnonzero(fr.edge_zones(P))
+    w = np.ones(200)
+    out = zone[2:5]
+    w[out] = 0.0
+    curve, _, _ = fr.fair_fit(P, w, t=t, knot_turn=1e9)
+    assert not np.isin(t[out], curve.knots).any()
+    assert np.isin(t[np.setdiff1d(zone, out)], curve.knots).all()
+
+
+def test_eight_spans_from_the_density_rule_are_kept_fewer_become_eight_uniform_ones():
+    # 40 points at uneven parameters, one knot per 5 points: knots at points 0, 5, ..., 35
+    # (the cumulative density passes 1, 2, ... at them) and 1: 8 spans, not the uniform ones
+    P, _ = circle(40)
+    t = (np.arange(40) / 40) ** 1.3
+    c8, _, _ = fr.fair_fit(P, t=t, knot_turn=1e9, knot_length=1e9, points_per_pole=5, edge_fraction=0.0)
+    assert np.allclose(c8.knots, np.concatenate([t[::5], [1.0]]), atol=1e-15)
+    # one per 6 points: 7 spans, too few: 8 uniform spans of the period [0, 1] instead
+    c7, _, d = fr.fair_fit(P, t=t, knot_turn=1e9, knot_length=1e9, points_per_pole=6, edge_fraction=0.0)
+    assert np.array_equal(c7.knots, np.linspace(0.0, 1.0, 9))
+
+
+def test_describe_runs_counts_from_the_end_nearer_the_first_point_wherever_the_section_lies():
+    # an ellipse far from the origin, turned, started at either end or just either side of
+    # the middle of the chord: the chord fraction of a point is its distance from the end
+    # nearer the first point along the major axis over the major axis (closed form)
+    a, b = 20.0, 3.0
+    for angle in (0.0, 0.4, 2.0, -1.1):
+        for th0 in (0.0, np.pi, 0.5 * np.pi - 0.004, 0.5 * np.pi + 0.004, 1.5 * np.pi + 0.004):
+            th = th0 + np.linspace(0, 2 * np.pi, 400, endpoint=False)
+            x = a * np.cos(th)
+            P = np.column_stack([x, b * np.sin(th), np.zeros(400)])
+            R = np.array([[np.cos(angle), -np.sin(angle), 0], [np.sin(angle), np.cos(angle), 0], [0, 0, 1]])
+            P = P @ R.T + [150.0, -80.0, 40.0]
+            frac = (x + a) / (2 * a) if x[0] < 0 else (a - x) / (2 * a)
+            bad = np.zeros(400, bool)
+            bad[[0, 1, 150]] = True
+            disp = np.zeros(400)
+            disp[[0, 1, 150]] = [0.0123456789, 0.02, 0.0031415926]
+            runs = sorted(fr.describe_runs(P, bad, disp), key=lambda r: r["first_line"])
+            # fractions to 4 decimals, displacements to the nanometre (6 decimals of a mm)
+            assert runs == [
+                {"first_line": 0, "last_line": 1, "points": 2,
+                 "chord_fraction": [round(float(frac[0]), 4), round(float(frac[1]), 4)], "displacement_mm": 0.02},
+                {"first_line": 150, "last_line": 150, "points": 1,
+                 "chord_fraction": [round(float(frac[150]), 4)] * 2, "displacement_mm": 0.003142}], (angle, th0, runs)
+            # counted from the end nearer the first point: its own fraction is at most a half
+            assert frac[0] <= 0.5
+
+
+# --------------------------------------------------------------------------- the auxiliary cubic, by scipy
+def aux_reference(curve, t, a2, a1, b1, b2, k):
+    """Seed 001's auxiliary cubic as replace_runs documents it, built by scipy: through the
+    feet Q of a2, a1, b1, b2 on ``curve`` at chord-length parameters u in [0, 1], first
+    derivatives at a2 and b2 along the curve's tangent with length L (the chord length of the
+    four), knots by averaging (NURBS Book §9.2.2: 0⁴, (u0+u1+u2)/3, (u1+u2+u3)/3, 1⁴); the k
+    new points at equal parameter steps strictly between a1 and b1."""
+    from scipy.interpolate import make_interp_spline
+
+    from bladerecon.core.geometry.bspline import curve_derivatives
+
+    Q = evaluate_curve(curve, t[[a2, a1, b1, b2]])
+    c = np.linalg.norm(np.diff(Q, axis=0), axis=1)
+    L = c.sum()
+    u = np.concatenate([[0.0], np.cumsum(c)]) / L
+    tan = curve_derivatives(curve, t[[a2, b2]], 1)[:, 1]
+    tan = L * tan / np.linalg.norm(tan, axis=1, keepdims=True)
+    knots = np.concatenate([[0.0] * 4, [u[:3].mean(), u[1:].mean()], [1.0] * 4])
+    spl = make_interp_spline(u, Q, k=3, t=knots, bc_type=([(1, tan[0])], [(1, tan[1])]))
+    return spl(u[1] + (u[2] - u[1]) * np.arange(1, k + 1) / (k + 1))
+
+
+def test_replaced_runs_are_the_auxiliary_cubics_of_their_two_nearest_good_neighbours():
+    # three runs on the ellipse: one across the loop's end, two one good point apart (each
+    # then reaches past the other for its second neighbour)
+    P, nrm = flank_section()
+    bad = np.zeros(400, bool)
+    bad[[398, 399, 0, 100, 101, 102, 104, 105]] = True
+    Pb = P.copy()
+    Pb[bad] += 0.02 * nrm[bad]
+    curve, t, _ = fr.fair_fit(Pb, (~bad).astype(float), t=fr.chord_parameters_of_good(Pb, bad))
+    out = fr.replace_runs(Pb, bad, curve, t)
+    # neighbours counted by hand: (a2, a1 | b1, b2) for each run
+    for run, (a2, a1, b1, b2) in (([398, 399, 0], (396, 397, 1, 2)), ([100, 101, 102], (98, 99, 103, 106)),
+                                  ([104, 105], (99, 103, 106, 107))):
+        want = aux_reference(curve, t, a2, a1, b1, b2, len(run))
+        # the same interpolation solved twice in double precision on a 20 mm section
+        assert np.abs(out[run] - want).max() < 1e-10, run
+    assert np.array_equal(out[~bad], Pb[~bad])
+
+
+def test_four_good_points_are_enough_to_replace_the_rest():
+    # 20 points, 4 good: every run's auxiliary cubic runs through all four
+    P, _ = flank_section(20)
+    bad = np.ones(20, bool)
+    bad[[0, 5, 10, 15]] = False
+    curve, t, _ = fr.fair_fit(P)
+    out = fr.replace_runs(P, bad, curve, t)
+    assert np.abs(out[1:5] - aux_reference(curve, t, 15, 0, 5, 10, 4)).max() < 1e-10
+    assert np.abs(out[16:20] - aux_reference(curve, t, 10, 15, 0, 5, 4)).max() < 1e-10
+    assert np.array_equal(out[~bad], P[~bad])
+
+
+def test_fairing_refuses_where_the_auxiliary_cubic_strays_more_than_five_thresholds():
+    # a 10 mm circle, a point every 0.9° except a stretch of 7 points 15° apart, the middle
+    # one 0.1 mm out: around it the points are too sparse for the auxiliary cubic to follow
+    # the fair fit of the good points. The stray (brute force: the replaced points against
+    # 200 001 samples of that fit, 0.3 µm apart, so within 0.3²/8/R ≈ 1e-9 mm and a nearest-
+    # sample error ~(0.15 µm)²/(2·stray) ≈ 3e-7 mm) decides against AUX_AGREEMENT = 5
+    # thresholds, here at 0.008 mm, where the stray is 5-6 thresholds
+    from scipy.spatial import cKDTree
+
+    R, thr = 10.0, 0.008
+    dense = np.deg2rad(np.arange(0.0, 360.0 - 7 * 15.0, 0.9))
+    sparse = np.deg2rad(360.0 - 7 * 15.0 + 15.0 * np.arange(7))
+    th = np.concatenate([dense, sparse])
+    P = np.column_stack([R * np.cos(th), R * np.sin(th), np.zeros(th.size)])
+    P[dense.size + 3] *= 1.0 + 0.1 / R
+    bad, _, curve, t = fr.detect_bad_points(P, thr, edges=False)
+    idx = np.flatnonzero(bad)
+    assert dense.size + 3 in idx
+    out = fr.replace_runs(P, bad, curve, t)
+    stray = cKDTree(evaluate_curve(curve, np.linspace(0, 1, 200001))).query(out[idx])[0]
+    assert 5.0 * thr < stray.max() < 6.0 * thr, stray.max() / thr
+    with pytest.raises(BladeReconError) as e:
+        fr.fair_section(P, thr, name="S9", edges=False)
+    m = re.fullmatch(r"fairing refused: section S9, the auxiliary curve at point (\d+) strays (\d\.\d{4}) mm from the "
+                     r"fair fit of the good points \(points around it too sparse or too uneven to rebuild it\): "
+                     r"raise --fair-threshold or leave this data unfaired", str(e.value))
+    assert m, str(e.value)
+    assert int(m.group(1)) == idx[np.argmax(stray)]
+    assert abs(float(m.group(2)) - stray.max()) <= 5e-5 + 1e-6        # printed to 0.1 µm
+
+
+# --------------------------------------------------------------------------- the quarter rule and its message
+def test_a_quarter_of_the_points_bad_is_still_fairable_one_more_is_not():
+    # a 10 mm circle, every fourth point 20 µm out: a fit with a knot per 20 points (turning
+    # and edge rules off) cannot follow a bump per 4 points, it rises by their mean, 5 µm.
+    # The bumps then sit 15 µm off, the others 5 µm: above the 3 µm threshold but under half
+    # the worst, so the first round rejects exactly the bumps, 100 of 400: a quarter, not
+    # more than a quarter. One more bump next to one of them: 101, more than a quarter
+    R, n = 10.0, 400
+    th = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    P = np.column_stack([R * np.cos(th), R * np.sin(th), np.zeros(n)])
+    opts = dict(edges=False, edge_fraction=0.0, knot_turn=1e9, points_per_pole=20)
+    for extra in ([], [2]):
+        sel = np.concatenate([np.arange(0, n, 4), extra]).astype(int)
+        Q = P.copy()
+        Q[sel] *= 1.0 + 0.02 / R
+        if not extra:
+            bad = fr.detect_bad_points(Q, **opts)[0]
+            assert np.array_equal(np.flatnonzero(bad), np.sort(sel))
+        else:
+            with pytest.raises(BladeReconError, match="more than a quarter"):
+                fr.detect_bad_points(Q, **opts)
+
+
+def test_the_quarter_message_prints_threshold_and_median_distance_in_micrometres():
+    # a 10 mm circle with its points alternately 0.2 mm out and in: the fit (a knot per 10
+    # points, turning and edge rules off) cannot follow an alternation of period 2 points, it
+    # is the circle, every point 0.2 mm from it; every point is rejected at once. The median
+    # distance is then 200 µm (the fit's leftover ripple is orders under the 0.05 µm the
+    # message's decimal resolves), the threshold 60 µm; the suggestion 5 × 0.2 mm
+    R, n, dl = 10.0, 400, 0.2
+    th = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    r = R + dl * np.where(np.arange(n) % 2 == 0, 1.0, -1.0)
+    P = np.column_stack([r * np.cos(th), r * np.sin(th), np.zeros(n)])
+    with pytest.raises(BladeReconError) as e:
+        fr.detect_bad_points(P, 0.06, name="S1", edges=False, edge_fraction=0.0, knot_turn=1e9)
+    assert str(e.value) == ("section S1: more than a quarter of the points are farther than 60.0 µm from a fair "
+                            "curve (median distance 200.0 µm): the threshold is below this data's noise; "
+                            "try --fair-threshold 1.000")
+
+
+def test_noisy_circular_edges_are_judged_against_the_noise_of_the_flanks():
+    # a 40 x 2 mm stadium (semicircular edges of radius 1 mm tangent to straight flanks,
+    # seed 004's round edge exactly), a point every 0.2 mm, each moved along its normal by
+    # N(0, 0.8 µm) noise. The edge model may miss its clean points by 1.5 × the flanks' noise
+    # about the fair fit (~0.8 µm): both edges are judged, nothing is flagged (the noise
+    # stays under the 3 µm threshold: 3.75 σ). Judged by the noise of the edge zones instead,
+    # where the fair fit has a knot a point and follows the noise, they would not be
+    P, _ = rounded_rectangle(40.0, 2.0, 1.0, 0.2)
+    T = np.roll(P, -1, axis=0) - np.roll(P, 1, axis=0)
+    N = np.column_stack([T[:, 1], -T[:, 0], np.zeros(len(P))])
+    N /= np.linalg.norm(N, axis=1, keepdims=True)
+    sigma = 0.0008
+    e = np.random.default_rng(1).normal(0.0, sigma, len(P))
+    Q = P + e[:, None] * N
+    s = fr.fair_section(Q)
+    assert [j.judged for j in s.edges] == [True, True] and not s.bad.any()
+    # detect_bad_points judges the edges too by default: in the edge zones its distances are
+    # those to the edge model, a circle and two flanks of 11 numbers over ~40 points a zone,
+    # which keeps the noise: |d| - |e| has an rms about σ √(11/40) ≈ 0.52 σ (the fair fit,
+    # a knot a point there, would follow the noise: d ≈ 0, rms ≈ σ)
+    from bladerecon.core.sections.edge_bad_points import EDGE_FRACTION
+
+    zone = fr.edge_zones(P, EDGE_FRACTION)
+    bad, d, _, _ = fr.detect_bad_points(Q)
+    assert not bad.any()
+    assert np.sqrt(np.mean((d[zone] - np.abs(e[zone])) ** 2)) < 0.65 * sigma

@@ -72,6 +72,10 @@ class SectionFairing:
 
 def _fit(points: np.ndarray, t: np.ndarray, w: np.ndarray, knots: np.ndarray,
          smoothing: float) -> BSplineCurve:
+    """Periodic cubic on ``knots`` minimising ``Σ w_i |C(t_i) - p_i|² + λ ∫|C''|²`` with
+    ``λ = smoothing · tr(AᵀWA) / tr(E)`` (A the collocation matrix, E the Gram matrix of the
+    second derivatives): the strain energy weighted relative to the data term, so that
+    scaling every weight leaves the curve as it is."""
     mults = np.ones(knots.size, dtype=int)
     n_poles = knots.size - 1
     A = collocation_matrix(knots, mults, 3, True, n_poles, t)
@@ -98,7 +102,12 @@ def edge_zones(points: np.ndarray, fraction: float = 0.04) -> np.ndarray:
 def _robust_turning(P: np.ndarray, window: int = 21, baseline: float = 0.5) -> np.ndarray:
     """Turning (rad) per point step of a closed loop, measured over chords of about
     ``baseline`` mm (so that noise on dense points does not read as turning), running
-    median over ``window`` points (so that a short run of bad points does not either)."""
+    median over ``window`` points (so that a short run of bad points does not either).
+
+    The chords span k = round(baseline / median step) steps, at least 1 and at most an
+    eighth of the points; the turning at a point is the angle between the chords that end
+    and start there, over k; the median window is centred, of max(window, 2k + 1) points
+    (at most all of them)."""
     n = P.shape[0]
     h = float(np.median(np.linalg.norm(np.roll(P, -1, axis=0) - P, axis=1)))
     k = int(max(1, min(n // 8, round(baseline / max(h, 1e-300)))))
@@ -116,7 +125,7 @@ def _density_knots(t: np.ndarray, density: np.ndarray) -> np.ndarray:
     passes a whole number (eq. 9.69 with a weight per point): a knot at every point where
     the density is 1, at every 1/density-th point elsewhere. Knots at data parameters keep
     every span supported by data (Schoenberg-Whitney), even where the knots are as dense
-    as the points."""
+    as the points. Parameters outside the period [0, 1] give no knot."""
     order = np.argsort(t)
     ts, ds = t[order], density[order]
     cum = np.cumsum(ds)
@@ -358,8 +367,8 @@ def fair_section(points: np.ndarray, threshold: float = DEFAULT_THRESHOLD,
 def describe_runs(points: np.ndarray, bad: np.ndarray, displacement: np.ndarray,
                   lines: np.ndarray | None = None) -> list[dict]:
     """Where each run of bad points of one closed, ordered section is: its first and last
-    line (or index), number of points, the chord fraction of its first and last point and
-    its largest displacement (mm).
+    line (or index), number of points, the chord fraction of its first and last point (to 4
+    decimals) and its largest displacement (mm, to the nanometre).
 
     The chord fraction is measured along the section's principal direction, 0 at the end
     nearer the section's first point (the reconstruction's leading edge when the points
