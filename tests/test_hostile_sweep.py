@@ -496,3 +496,40 @@ def test_a_stop_while_scipy_builds_its_functions_is_one_line(tmp_path):
                           timeout=120)
     assert proc.returncode == 143, (proc.returncode, proc.stderr)
     assert proc.stderr.strip() == "bladerecon: terminated (SIGTERM); no output was completed", proc.stderr
+
+
+def test_a_resent_stop_landing_inside_the_hook_is_sent_again(monkeypatch):
+    """The signal a timer sends again can land while the hook that armed an earlier one is still
+    running (a loaded machine: the hook's thread start took longer than the 2 ms delay). Raised
+    there, it is swallowed as well ("Exception ignored in sys.unraisablehook", FreeCAD 1.0 under
+    load, 2026-11-28: the command ran on to status 0). The hook must arm the signal again."""
+    import types
+
+    from bladerecon.cli import stops
+
+    class Stop(Exception):
+        pass
+
+    started, landings = [], [1]                   # one landing inside the hook, then none
+
+    class Timer:
+        def __init__(self, delay, fn, args):
+            if landings:
+                landings.pop()
+                raise Stop()                      # what the signal handler raises at that moment
+            self.args = args
+
+        def start(self):
+            started.append(self.args)
+
+        def cancel(self):
+            pass
+
+    monkeypatch.setattr(stops.threading, "Timer", Timer)
+    previous = signal.signal(signal.SIGUSR1, lambda *a: None)
+    try:
+        with stops.resend_swallowed({Stop: signal.SIGUSR1}) as r:
+            r._hook(types.SimpleNamespace(exc_type=Stop))
+    finally:
+        signal.signal(signal.SIGUSR1, previous)
+    assert started == [(os.getpid(), signal.SIGUSR1)] and not landings

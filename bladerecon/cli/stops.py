@@ -57,11 +57,21 @@ class resend_swallowed:
         if signum is None or not callable(signal.getsignal(signum)):
             self.previous(unraisable)
             return
-        warnings.simplefilter("ignore")
-        self.count += 1
-        if self.count > RESEND_LIMIT and self.on_limit is not None:
-            self.on_limit(signum)
-        timer = threading.Timer(RESEND_DELAY, os.kill, (os.getpid(), signum))
-        timer.daemon = True
-        self.timers.append(timer)
-        timer.start()
+        stops = tuple(self.stops)
+        armed = False
+        while not armed:
+            try:
+                warnings.simplefilter("ignore")
+                self.count += 1
+                if self.count > RESEND_LIMIT and self.on_limit is not None:
+                    self.on_limit(signum)
+                timer = threading.Timer(RESEND_DELAY, os.kill, (os.getpid(), signum))
+                timer.daemon = True
+                self.timers.append(timer)
+                timer.start()
+                armed = True
+            except stops:
+                # the signal an earlier timer sent landed here, inside this hook, where it is
+                # swallowed too ("Exception ignored in sys.unraisablehook"; seen on a loaded
+                # machine: the command then ran on to status 0): send it again
+                continue
