@@ -250,9 +250,10 @@ def _orthographic_image(xyz: np.ndarray, value: np.ndarray, elev: float, azim: f
     (nu, nv) in [0, 1], seen from elevation/azimuth (degrees, as matplotlib's 3-D axes) in
     orthographic projection, true scale, background 1 (white).
 
-    A z-buffer over a grid refined (linearly) until neighbouring samples land under half a pixel
-    apart: each pixel shows the sample nearest the eye. ~100x faster than ``plot_surface`` with
-    a face colour per quad (seconds per view), and no painter's-order errors.
+    A z-buffer over a grid refined (linearly) until neighbouring samples land under 0.7 px
+    apart: each pixel shows the sample nearest the eye. ~20x faster than ``plot_surface`` with
+    a face colour per quad (0.3 s against 6 s a view of a 600 x 120 grid), and no
+    painter's-order errors.
     """
     e, a = np.radians(elev), np.radians(azim)
     eye = np.array([np.cos(e) * np.cos(a), np.cos(e) * np.sin(a), np.sin(e)])
