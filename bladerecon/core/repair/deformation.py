@@ -203,7 +203,7 @@ def _gcv_solve(N, rhs, K, x0, signed, A, w):
     lambda is solved again directly. Without a Cholesky factor (N not positive definite)
     every lambda is solved directly.
     """
-    from scipy.linalg import cho_factor, eigh, solve_triangular
+    from scipy.linalg import eigh, solve_triangular
 
     scale = np.trace(N) / max(np.trace(K), 1e-300)
     m = float(w.sum())
