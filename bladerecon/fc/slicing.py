@@ -27,6 +27,29 @@ def _wire_points(wire, step: float) -> np.ndarray:
     return pts
 
 
+def _nudged_origins(o: np.ndarray, n: np.ndarray, centre: np.ndarray):
+    """The plane's origin, then moved along the unit normal ``n`` towards the blade's centre by
+    each of :data:`NUDGES`: a section measured at the very end of the blade lies in the plane
+    of the nominal's end, and a cut there is tried again up to 0.1 mm inside."""
+    inward = 1.0 if (centre - o) @ n >= 0 else -1.0
+    for shift in NUDGES:
+        yield o + inward * shift * n
+
+
+def _counter_clockwise(pts: np.ndarray, o: np.ndarray, n: np.ndarray) -> np.ndarray:
+    """The loop turned counter-clockwise about the plane normal ``n`` (signed area in the plane)."""
+    e1 = np.cross(n, np.eye(3)[np.argmin(np.abs(n))])
+    e2 = np.cross(n, e1)
+    q = np.column_stack([(pts - o) @ e1, (pts - o) @ e2])
+    area = 0.5 * np.sum(q[:, 0] * np.roll(q[:, 1], -1) - np.roll(q[:, 0], -1) * q[:, 1])
+    return pts[::-1] if area < 0 else pts
+
+
+def _centre(shape) -> np.ndarray:
+    bb = shape.BoundBox
+    return np.array([bb.Center.x, bb.Center.y, bb.Center.z])
+
+
 def cut_sections(path: str, origins: np.ndarray, normals: np.ndarray, step: float = 0.1,
                  shape=None) -> list[np.ndarray]:
     """Dense points (n_k, 3) of the nominal cut by the planes (origin_k, normal_k), mm.
@@ -41,17 +64,13 @@ def cut_sections(path: str, origins: np.ndarray, normals: np.ndarray, step: floa
     fast = _cut_single_face(shape, origins, normals, step)
     if fast is not None:
         return fast
-    bb = shape.BoundBox
-    centre = np.array([bb.Center.x, bb.Center.y, bb.Center.z])
+    centre = _centre(shape)
     out = []
     for k, (o, n) in enumerate(zip(np.asarray(origins, float), np.asarray(normals, float))):
         n = n / np.linalg.norm(n)
-        inward = 1.0 if (centre - o) @ n >= 0 else -1.0
         best = None
-        # a section measured at the very end of the blade lies in the plane of the nominal's
-        # boundary: step inside by up to 0.1 mm until the cut is one closed wire
-        for shift in NUDGES:
-            wires = shape.slice(FreeCAD.Vector(*n), float(n @ o + inward * shift))
+        for o2 in _nudged_origins(o, n, centre):       # until the cut is one closed wire
+            wires = shape.slice(FreeCAD.Vector(*n), float(n @ o2))
             closed = [w for w in wires if w.isClosed()]
             if closed:
                 best = min(closed, key=lambda w: np.linalg.norm(
@@ -61,15 +80,7 @@ def cut_sections(path: str, origins: np.ndarray, normals: np.ndarray, step: floa
             raise BladeReconError(f"{path}: the plane of section {k} (through {np.round(o, 3).tolist()} mm, "
                                   f"normal {np.round(n, 4).tolist()}) gives no closed section of the nominal "
                                   "(missed, or only touches a cap); choose a height inside the blade")
-        pts = _wire_points(best, step)
-        e1 = np.cross(n, np.eye(3)[np.argmin(np.abs(n))])
-        e1 /= np.linalg.norm(e1)
-        e2 = np.cross(n, e1)
-        q = np.column_stack([(pts - o) @ e1, (pts - o) @ e2])
-        area = 0.5 * np.sum(q[:, 0] * np.roll(q[:, 1], -1) - np.roll(q[:, 0], -1) * q[:, 1])
-        if area < 0:
-            pts = pts[::-1]
-        out.append(pts)
+        out.append(_counter_clockwise(_wire_points(best, step), o, n))
     return out
 
 
@@ -88,29 +99,20 @@ def _cut_single_face(shape, origins, normals, step):
     surf = from_part_surface(face.Surface)
     if not surf.u_periodic:
         return None
-    bb = shape.BoundBox
-    centre = np.array([bb.Center.x, bb.Center.y, bb.Center.z])
+    centre = _centre(shape)
     out = []
     for o, n in zip(np.asarray(origins, float), np.asarray(normals, float)):
         n = n / np.linalg.norm(n)
-        inward = 1.0 if (centre - o) @ n >= 0 else -1.0
         pts = None
-        # a section measured at the very end of the blade lies in the plane of the nominal's
-        # end: step inside by up to 0.1 mm, as the OCC path below does
-        for shift in NUDGES:
+        for o2 in _nudged_origins(o, n, centre):       # as the OCC path: up to 0.1 mm inside
             try:
-                pts = cut_surface(surf, o + inward * shift * n, n, step)
+                pts = cut_surface(surf, o2, n, step)
                 break
             except BladeReconError:
                 continue
         if pts is None:
             return None
-        e1 = np.cross(n, np.eye(3)[np.argmin(np.abs(n))])
-        e2 = np.cross(n, e1)
-        q = np.column_stack([(pts - o) @ e1, (pts - o) @ e2])
-        if 0.5 * np.sum(q[:, 0] * np.roll(q[:, 1], -1) - np.roll(q[:, 0], -1) * q[:, 1]) < 0:
-            pts = pts[::-1]
-        out.append(pts)
+        out.append(_counter_clockwise(pts, o, n))
     return out
 
 
@@ -119,7 +121,6 @@ def cut_at_heights(path: str, heights: np.ndarray, axis: np.ndarray = np.array([
     """Sections of the nominal in the planes ``axis·x = h`` for each height h (mm)."""
     a = np.asarray(axis, float) / np.linalg.norm(axis)
     shape = read_shape(path)
-    bb = shape.BoundBox
-    centre = np.array([bb.Center.x, bb.Center.y, bb.Center.z])
+    centre = _centre(shape)
     origins = np.array([centre + (h - centre @ a) * a for h in np.asarray(heights, float)])
     return cut_sections(path, origins, np.tile(a, (len(origins), 1)), step, shape=shape)
