@@ -205,23 +205,47 @@ def _flank_lines(st: np.ndarray, z: np.ndarray) -> list:
 
 
 def _ellipse_distance(z: np.ndarray, P: np.ndarray) -> np.ndarray:
-    """Signed orthogonal distance of P to the ellipse z (Newton on the foot's parameter)."""
-    cs, ct, a, b, th = z
+    """Signed orthogonal distance of P to the ellipse z (negative inside), to the closest foot
+    wherever P is, deep inside a slender ellipse too.
+
+    Eberly's construction: by symmetry the point is taken into the first quadrant of the ellipse's
+    frame, (y₀, y₁) ≥ 0, with the semi-axes ordered a ≥ b. The closest foot is
+    x = (a²y₀/(t + a²), b²y₁/(t + b²)) for the one root t > −b² of
+    G(t) = (a y₀/(t + a²))² + (b y₁/(t + b²))² − 1, which decreases monotonically there; bisection
+    brackets it without a start that could fall to a farther foot (Newton on the angle did, by the
+    centre of curvature of a slender tip). On the major axis (y₁ = 0) inside the evolute the foot
+    leaves the axis, x₀ = a²y₀/(a² − b²), in closed form.
+    """
+    cs, ct, a, b, th = (float(v) for v in z)
     c, s = np.cos(th), np.sin(th)
     ds, dt = P[:, 0] - cs, P[:, 1] - ct
     u, v = c * ds + s * dt, -s * ds + c * dt
-    e = np.arctan2(a * v, b * u)
-    for _ in range(30):   # minimise |(u, v) − (a cos e, b sin e)|²: f(e) = (a²−b²) sin e cos e − a u sin e + b v cos e
-        se, ce = np.sin(e), np.cos(e)
-        f = (a * a - b * b) * se * ce - a * u * se + b * v * ce
-        fp = (a * a - b * b) * (ce * ce - se * se) - a * u * ce - b * v * se
-        step = f / np.where(np.abs(fp) > 1e-300, fp, 1e-300)
-        e = e - np.clip(step, -0.5, 0.5)
-        if np.abs(step).max() < 1e-14:
-            break                                         # the foot has converged
-    dist = np.hypot(u - a * np.cos(e), v - b * np.sin(e))
-    inside = (u / a) ** 2 + (v / b) ** 2 < 1.0
-    return np.where(inside, -dist, dist)
+    if a < b:                                             # the frame's first axis the major one
+        a, b, u, v = b, a, v, u
+    y0, y1 = np.abs(u), np.abs(v)
+    g = (y0 / a) ** 2 + (y1 / b) ** 2 - 1.0
+    # scaled unknown q = t / b² + 1 > 0: G = (r·z₀/(q − 1 + r))² + (z₁/q)² − 1, r = (a/b)²;
+    # bisected in q (not t) so that a root by 0, a point just off the major axis, keeps its digits
+    r = (a / b) ** 2
+    z0, z1 = y0 / a, y1 / b
+    axis = y1 <= 1e-12 * b                                # on the major axis (within round-off)
+    lo = np.where(axis, 1.0, z1)                          # G(lo) ≥ 0
+    hi = np.where(g < 0.0, 1.0, np.hypot(r * z0, z1))     # G(hi) ≤ 0
+    for _ in range(400):                                  # float64 brackets shrink to a point first
+        mid = 0.5 * (lo + hi)
+        if not np.any((mid != lo) & (mid != hi)):
+            break
+        G = (r * z0 / (mid - 1.0 + r)) ** 2 + (z1 / mid) ** 2 - 1.0
+        lo, hi = np.where(G > 0.0, mid, lo), np.where(G > 0.0, hi, mid)
+    q = 0.5 * (lo + hi)
+    x0, x1 = r * y0 / (q - 1.0 + r), y1 / q
+    # on the major axis: the foot off the axis when a·y₀ < a² − b², else the vertex (a, 0)
+    off = axis & (a * y0 < a * a - b * b)
+    xd = np.where(off, a * y0 / max(a * a - b * b, 1e-300), 1.0)
+    x0 = np.where(axis, a * xd, x0)
+    x1 = np.where(axis, b * np.sqrt(np.maximum(1.0 - xd ** 2, 0.0)), x1)
+    dist = np.hypot(x0 - y0, x1 - y1)
+    return np.where(g < 0.0, -dist, dist)
 
 
 def _fit_ellipse_window(P: np.ndarray, z, radius: float, st: np.ndarray):
