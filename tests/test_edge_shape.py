@@ -206,3 +206,24 @@ def test_a_flank_beside_a_round_edge_is_not_its_flat():
     for s in pm.segment_blade([_kinked_wedge(z) for z in (0.0, 5.0)], Z, flow=FLOW).sections:
         m = pm.measure_section(s, strict_radius=False)
         assert m.le_fit["shape"] in ("circle", "irregular"), m.le_fit
+
+
+def test_section_plot_draws_the_ellipse_and_the_flat_not_the_best_circle(tmp_path):
+    """The section plot's LE outline lies on the true ellipse ((x − A)/A)² + (y/B)² = 1 and its
+    TE outline on the true flat x = 30 mm between the flanks y = ±B, checked in space after the
+    section frame's round trip (exact points: the fit's 2e-4 relative accuracy above bounds the
+    outline's distance, ~2e-4·A mm, so 1e-3 mm allowed); a best circle (r ≈ 0.2 / 0.5 mm) is
+    off by 0.1 mm or more. The PNG is written with those outlines."""
+    from bladerecon.report.section_plots import edge_outline, plot_section
+
+    secs = [edge_profile(z, 0.0, 400, 0.0, k) for k, z in enumerate((0.0, 5.0))]
+    seg = pm.segment_blade(secs, Z, flow=FLOW).sections[0]
+    m = pm.measure_section(seg, strict_radius=False)
+    le = seg.frame.to_space(edge_outline(seg.frame, m, "le"))
+    te = seg.frame.to_space(edge_outline(seg.frame, m, "te"))
+    assert np.abs(np.hypot((le[:, 0] - A) / A, le[:, 1] / B) - 1.0).max() * B < 1e-3
+    assert len(te) == 2 and np.abs(te[:, 0] - LENGTH).max() < 1e-3
+    assert np.allclose(np.sort(te[:, 1]), [-B, B], atol=1e-3)
+    path = tmp_path / "section.png"
+    plot_section(str(path), seg, m)
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -1,5 +1,6 @@
 # SPDX-License-Identifier: LGPL-2.1-or-later
-"""PNG of a segmented section (matplotlib, Agg): regions coloured, camber line, edge circles.
+"""PNG of a segmented section (matplotlib, Agg): regions coloured, camber line, edges as measured
+(circle, ellipse or flat).
 
 Coordinates are those of the section's plane (mm): e1 = +x projected, e2 = normal x e1.
 """
@@ -10,7 +11,7 @@ import numpy as np
 from bladerecon.core.geometry.bspline import evaluate_curve
 from bladerecon.core.sections.segmentation import LE, PRESSURE, REGION_NAMES, SUCTION, TE
 
-__all__ = ["plot_section"]
+__all__ = ["edge_outline", "plot_section"]
 
 COLOURS = {LE: "tab:red", SUCTION: "tab:blue", TE: "tab:orange", PRESSURE: "tab:green"}
 
@@ -20,6 +21,35 @@ def _region_curve(seg, region, n=600):
     lo, hi = seg.curve.domain
     t = lo + np.mod(np.linspace(a, b, n) - lo, hi - lo)
     return evaluate_curve(seg.curve, t)
+
+
+def edge_outline(frame, params, which: str, n: int = 200):
+    """What the section's ``which`` ("le" or "te") edge was measured as, in the section plane
+    (mm): the fitted ellipse (n points) or flat (its two ends) when the edge is one, else the
+    edge circle; None without a radius. The parameters' 3D figures mapped by ``frame``."""
+    fit = getattr(params, f"{which}_fit") or {}
+    to2 = lambda p: frame.to_plane(np.asarray(p, float).reshape(1, 3))[0]            # noqa: E731
+    if fit.get("shape") == "ellipse":
+        e = fit["ellipse"]
+        c = to2(e["centre"])
+        major = to2(np.asarray(e["centre"]) + np.asarray(e["major_axis"])) - c
+        major /= np.linalg.norm(major)
+        minor = np.array([-major[1], major[0]])
+        t = np.linspace(0, 2 * np.pi, n)
+        return c + np.outer(e["a_mm"] * np.cos(t), major) + np.outer(e["b_mm"] * np.sin(t), minor)
+    if fit.get("shape") == "flat":
+        f = fit["flat"]
+        m = to2(f["midpoint"])
+        d = to2(np.asarray(f["midpoint"]) + np.asarray(f["direction"])) - m
+        d /= np.linalg.norm(d)
+        half = 0.5 * (f["length_mm"] if f["width_mm"] is None else f["width_mm"])
+        return np.array([m - half * d, m + half * d])
+    r = getattr(params, f"{which}_radius")
+    if r is None:
+        return None
+    c = to2(getattr(params, f"{which}_center"))
+    t = np.linspace(0, 2 * np.pi, n)
+    return c + r * np.column_stack([np.cos(t), np.sin(t)])
 
 
 def plot_section(path: str, seg, params, nominal_seg=None) -> None:
@@ -33,6 +63,8 @@ def plot_section(path: str, seg, params, nominal_seg=None) -> None:
     zooms = [fig.add_subplot(2, 2, 3), fig.add_subplot(2, 2, 4)]
     fr = seg.frame
     camber = fr.to_plane(params.camber)
+    # the chord's ends as measured (on an ellipse's tip or a flat's midpoint), not the segmentation's
+    ends = fr.to_plane(np.vstack([params.le, params.te]))
     for a in [ax, *zooms]:
         if nominal_seg is not None:
             nom = fr.to_plane(nominal_seg.frame.to_space(
@@ -44,16 +76,15 @@ def plot_section(path: str, seg, params, nominal_seg=None) -> None:
             m = seg.labels == region
             a.plot(seg.points2d[m, 0], seg.points2d[m, 1], ".", color=COLOURS[region], ms=3)
         a.plot(camber[:, 0], camber[:, 1], "-", color="purple", lw=0.8, label="camber")
-        a.plot([seg.le[0], seg.te[0]], [seg.le[1], seg.te[1]], ":", color="k", lw=0.6)
+        a.plot([ends[0][0], ends[1][0]], [ends[0][1], ends[1][1]], ":", color="k", lw=0.6, label="chord")
         joints = evaluate_curve(seg.curve, np.array(list(seg.t_joints.values())))
         a.plot(joints[:, 0], joints[:, 1], "kx", ms=7, label="joints")
-        a.plot(*seg.le, "ro", ms=5)
-        a.plot(*seg.te, "o", color="tab:orange", ms=5)
-        for centre, r in ((params.le_center, params.le_radius), (params.te_center, params.te_radius)):
-            if r is not None:
-                c2 = fr.to_plane(centre.reshape(1, 3))[0]
-                ang = np.linspace(0, 2 * np.pi, 200)
-                a.plot(c2[0] + r * np.cos(ang), c2[1] + r * np.sin(ang), "-", color="k", lw=0.5)
+        a.plot(*ends[0], "ro", ms=5)
+        a.plot(*ends[1], "o", color="tab:orange", ms=5)
+        for which in ("le", "te"):
+            outline = edge_outline(fr, params, which)
+            if outline is not None:
+                a.plot(outline[:, 0], outline[:, 1], "-", color="k", lw=0.5 if len(outline) > 2 else 1.5)
         if seg.throat is not None:
             a.plot(*seg.throat["point"], "m*", ms=10, label="throat")
         a.set_aspect("equal")
@@ -62,16 +93,30 @@ def plot_section(path: str, seg, params, nominal_seg=None) -> None:
     ax.set_title(f"section {seg.index}: chord {params.chord:.3f} mm, stagger {params.stagger_deg:.2f}°, "
                  f"t_max {params.max_thickness:.3f} mm at {params.max_thickness_pos:.2f} mm, "
                  f"r_LE {_f(params.le_radius)}, r_TE {_f(params.te_radius)} mm", fontsize=9)
-    for a, centre, r, name in ((zooms[0], seg.le, params.le_radius, "LE"), (zooms[1], seg.te, params.te_radius, "TE")):
-        half = max(5 * r, 0.008 * params.chord) if r else 0.012 * params.chord
+    for a, centre, name in ((zooms[0], ends[0], "LE"), (zooms[1], ends[1], "TE")):
+        outline = edge_outline(fr, params, name.lower())
+        size = 0.0 if outline is None else float(np.abs(outline - centre).max())
+        half = max(1.25 * size, 0.008 * params.chord) if size else 0.012 * params.chord
         a.set_xlim(centre[0] - half, centre[0] + half)
         a.set_ylim(centre[1] - half, centre[1] + half)
-        a.set_title(f"{name} region (points coloured by region; x = joints)", fontsize=8)
+        a.set_title(f"{name} region, {_edge_words(params, name.lower())} (points coloured by region; x = joints)",
+                    fontsize=8)
     fig.tight_layout()
     try:
         fig.savefig(path, dpi=90)
     finally:                      # a full disk: the figure is not kept open
         plt.close(fig)
+
+
+def _edge_words(params, which: str) -> str:
+    """The drawn edge in words: ellipse semi-axes, flat width or circle radius (mm)."""
+    fit = getattr(params, f"{which}_fit") or {}
+    if fit.get("shape") == "ellipse":
+        return f"ellipse {fit['ellipse']['a_mm']:.3f} × {fit['ellipse']['b_mm']:.3f} mm"
+    if fit.get("shape") == "flat":
+        f = fit["flat"]
+        return f"flat {_f(f['width_mm'])} mm wide" if f["width_mm"] is not None else f"flat {f['length_mm']:.3f} mm long"
+    return f"circle r {_f(getattr(params, f'{which}_radius'))} mm"
 
 
 def _f(v):
