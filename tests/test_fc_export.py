@@ -285,3 +285,28 @@ def test_make_solid_default_planar_limit_is_ten_micrometres(amplitude, accepted)
         assert 0.011 < flat < 0.02, flat
         with pytest.raises(BladeReconError, match="hub end section is not planar"):
             make_solid(s)
+
+
+def test_read_shape_reads_a_file_once_and_each_caller_owns_its_shape(tmp_path, monkeypatch):
+    """One command reads its nominal in several steps (plan: four): the second read of an
+    unchanged file does not parse it again (OCC's reader counted), gives the same geometry as the
+    first (OCC's own area and bounding box), and a caller that moves its shape moves only its
+    own. A file rewritten in place (new size and time) is read again, its new content."""
+    step = tmp_path / "blade.step"
+    write_step(blade_surface(), str(step))
+    reads, held = [], export.signals_held
+
+    def counted():                  # read_shape parses a file only inside signals_held()
+        reads.append(1)
+        return held()
+    monkeypatch.setattr(export, "signals_held", counted)
+    first = read_shape(str(step))
+    area, box = first.Area, first.BoundBox
+    first.translate(FreeCAD.Vector(100.0, 0.0, 0.0))
+    second = read_shape(str(step))
+    assert len(reads) == 1
+    assert abs(second.Area - area) < 1e-9 * area and second.BoundBox.isInside(box) and box.isInside(second.BoundBox)
+    write_step(tube_surface := clamped_surface(), str(step))
+    third = read_shape(str(step))
+    assert len(reads) == 2
+    assert abs(third.Area - make_face(tube_surface).Area) < 1e-6 * third.Area

@@ -291,6 +291,11 @@ def read_shape(path: str | os.PathLike) -> Any:
         raise BladeReconError(f"cannot read {path}: permission denied")
     if os.path.getsize(path) == 0:
         raise BladeReconError(f"cannot read {path}: the file is empty")
+    st = os.stat(path)
+    key = (os.path.realpath(path), st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns)
+    if key in _READ_CACHE:          # one command reads its nominal once, however many steps use it
+        _READ_CACHE[key] = _READ_CACHE.pop(key)
+        return _READ_CACHE[key].copy()
     try:
         with signals_held():            # interrupted, OCC's reader threads crash: Ctrl-C comes after
             if suffix == ".fcstd":
@@ -304,4 +309,13 @@ def read_shape(path: str | os.PathLike) -> Any:
     if shape.isNull() or not shape.Faces:
         what = "nothing" if shape.isNull() else f"{len(shape.Edges)} edges, {len(shape.Vertexes)} vertices"
         raise BladeReconError(f"cannot use {path}: it holds no faces ({what})")
+    _READ_CACHE[key] = shape.copy()     # a copy each way: a caller that moves its shape moves only its own
+    while len(_READ_CACHE) > _READ_CACHE_SIZE:
+        _READ_CACHE.pop(next(iter(_READ_CACHE)))
     return shape
+
+
+# Shapes read, by file identity (path, device, inode, size, modification time): a file changed
+# or replaced is read again. The few most recent only (a workbench session reads many files).
+_READ_CACHE: dict = {}
+_READ_CACHE_SIZE = 4
