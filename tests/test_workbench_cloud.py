@@ -78,8 +78,10 @@ def data(tmp_path_factory):
     assert run.returncode == 0, run.stderr
     rc, out, err = _cli_inproc("sections", cloud, "--cloud-scale", "1000", "--json", "--quiet")
     assert rc == 0, err
+    mm = np.loadtxt(cloud) * 1000.0             # what is read: the file's numbers in mm
+    np.savetxt(tmp / "nodes_mm.xyz", mm, fmt="%.17g")     # the same points for ``deviation`` (no --cloud-scale)
     return {"tmp": tmp, "blade": blade, "cloud": cloud, "step": step, "cli": json.loads(run.stdout),
-            "cli_sections": json.loads(out), "mm": np.loadtxt(cloud) * 1000.0}
+            "cli_sections": json.loads(out), "mm": mm}
 
 
 @pytest.fixture(scope="module")
@@ -256,10 +258,10 @@ def test_sections_the_command_cannot_measure_fail_with_its_line(data, tmp_path):
 
 def test_deviation_of_the_cloud_is_the_command_lines(data, chain):
     """A DeviationAnalysis of the cloud against the command's STEP: the statistics of
-    ``deviation`` on the same points (written in mm, every digit kept)."""
+    ``deviation`` on the same points (written in mm, every digit kept), fillet and cap nodes
+    included (the crop is ``--crop-to-nominal``'s, not the workbench's)."""
     doc, points, _, _ = chain
     mm = data["tmp"] / "nodes_mm.xyz"
-    np.savetxt(mm, bro._array(points.Points), fmt="%.17g")
     run = _cli("deviation", mm, "--nominal", data["step"], "--tolerance", "0.05", "--json", "--quiet", cwd=data["tmp"])
     assert run.returncode == 0, run.stderr
     cli = json.loads(run.stdout)
@@ -274,6 +276,30 @@ def test_deviation_of_the_cloud_is_the_command_lines(data, chain):
     finally:
         doc.removeObject(analysis.Name)
         doc.removeObject(nominal.Name)
+
+
+def test_compensated_deviation_of_the_cloud_is_the_command_lines(data):
+    """ProbeRadius on a cloud in a Deviation analysis: the points moved along the nominal's
+    normals, as ``deviation CLOUD --probe-radius`` moves them."""
+    mm = data["tmp"] / "nodes_mm.xyz"
+    run = _cli("deviation", mm, "--nominal", data["step"], "--tolerance", "0.05", "--probe-radius", "0.05", "--json",
+               "--quiet", cwd=data["tmp"])
+    assert run.returncode == 0, run.stderr
+    cli = json.loads(run.stdout)
+    assert cli["compensation"]["normals"] == "nominal"
+    doc = FreeCAD.newDocument("CloudProbe")
+    try:
+        points = bro.make_measured_points(doc, str(data["cloud"]), cloud_scale=1000.0)
+        points.ProbeRadius = 0.05
+        nominal = doc.addObject("Part::Feature", "CliStep")
+        nominal.Shape = Part.read(str(data["step"]))
+        analysis = bro.make_deviation_analysis(doc, points, nominal, tolerance=0.05)
+        doc.recompute()
+        assert analysis.Status == "ok", analysis.Status
+        for key, value in bro.DeviationAnalysis.stats(analysis).items():
+            assert value == pytest.approx(cli[key], rel=REL, abs=1e-12), key
+    finally:
+        FreeCAD.closeDocument(doc.Name)
 
 
 def test_a_structured_file_is_unchanged(tmp_path):
