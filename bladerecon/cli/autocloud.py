@@ -16,7 +16,8 @@ import argparse
 import sys
 
 from bladerecon.core.errors import BladeReconError
-from bladerecon.core.sections.whole_cloud import MIN_CLOUD_POINTS, check_cloud_size  # noqa: F401 (one path: the workbench's too)
+# one path with the workbench's: the size check and its limit live in core
+from bladerecon.core.sections.whole_cloud import MIN_CLOUD_POINTS, check_cloud_size  # noqa: F401
 
 __all__ = ["add_options", "read_input", "is_auto", "build", "pole_cap_note", "cloud_options", "check_cloud_size"]
 

@@ -20,9 +20,9 @@ import FreeCADGui
 from bladerecon.core.errors import BladeReconError
 from bladerecon.fc import objects
 
-__all__ = ["import_points", "ask_cloud_scale", "import_nominal", "analyse_sections", "reconstruct_surface", "compare_with_nominal",
-           "show_deviation_map", "map_state", "set_surface_analysis", "export_step", "write_report", "show_error",
-           "off_the_gui_thread", "Cancelled", "selected", "find_object"]
+__all__ = ["import_points", "ask_cloud_scale", "import_nominal", "analyse_sections", "reconstruct_surface",
+           "compare_with_nominal", "show_deviation_map", "map_state", "set_surface_analysis", "export_step",
+           "write_report", "show_error", "off_the_gui_thread", "Cancelled", "selected", "find_object"]
 
 _PARAMS = "User parameter:BaseApp/Preferences/Mod/BladeRecon"
 POINT_FILTER = "Measured points (*.csv *.txt *.xyz *.dat *.asc *.pts *.ply *.pcd);;All files (*)"
@@ -167,7 +167,8 @@ def import_points(path: str, cloud_scale: float | None = None) -> Any:
     from bladerecon.core.io.readers import read_points
 
     try:
-        ps = read_points(path, require_sections=False)  # a bad file is reported here, before the document is touched
+        # a bad file is reported here, before the document is touched
+        ps = read_points(path, require_sections=False)
         if not ps.structured:
             from bladerecon.core.sections.whole_cloud import check_cloud_size
 
