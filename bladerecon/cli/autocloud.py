@@ -15,14 +15,11 @@ from __future__ import annotations
 import argparse
 import sys
 
-import numpy as np
-
 from bladerecon.core.errors import BladeReconError
+# one path with the workbench's: the size check and its limit live in core
+from bladerecon.core.sections.whole_cloud import MIN_CLOUD_POINTS, check_cloud_size  # noqa: F401
 
 __all__ = ["add_options", "read_input", "is_auto", "build", "pole_cap_note", "cloud_options", "check_cloud_size"]
-
-#: fewest points of a cloud sliced automatically (six sections of a few hundred points)
-MIN_CLOUD_POINTS = 2000
 
 
 def add_options(r: argparse.ArgumentParser) -> None:
@@ -40,16 +37,6 @@ def add_options(r: argparse.ArgumentParser) -> None:
                         "into open curves")
     g.add_argument("--rotor-axis", choices=("x", "y", "z"), default="z",
                    help="with radial blades: the rotor axis through the origin (default z)")
-
-
-def _span_range(text: str) -> tuple[float, float]:
-    try:
-        a, b = (float(v) for v in text.split(":"))
-    except ValueError:
-        raise BladeReconError(f"--span-range '{text[:40]}': give A:B in mm, e.g. 45:195") from None
-    if not (np.isfinite(a) and np.isfinite(b) and a < b):
-        raise BladeReconError(f"--span-range '{text[:40]}': give A:B with A < B (mm)")
-    return a, b
 
 
 def is_auto(args: argparse.Namespace) -> bool:
@@ -89,41 +76,26 @@ def read_input(args: argparse.Namespace):
             raise BladeReconError(f"--{own[0].replace('_', '-')} applies to an unordered cloud; "
                                   f"{args.input} holds {len(ps.section_names)} sections")
         return realdata.read_input(args)
-    from bladerecon.core.sections.blade_cloud import choose_method, cut_sections, section_set
+    from bladerecon.core.sections.whole_cloud import cut_cloud, read_cloud_mm
 
     axis, rng, rotor = cloud_options(args)
-    P, lines = realdata._read_cloud(args.input, args.cloud_scale)
+    P, lines = read_cloud_mm(args.input, args.cloud_scale)
     check_cloud_size(args.input, len(P), " or cut them with --slice / --slice-at / --slice-radii")
-    cs = cut_sections(P, args.blade_kind, rng, args.sections, axis, rotor)
-    args._auto_cloud = cs
-    info = dict(cs.info)
-    info["cloud_scale"] = args.cloud_scale
-    args._cloud_lines = lines
-    args._cloud_sections = section_set(cs, lines, args.input)
-    if args.method == "auto":
-        args.method, info["method_reason"], info["method_scores"] = choose_method(cs, P, args._cloud_sections)
-    return cs.pointset(lines, args.input), info
+    cut = cut_cloud(P, lines, args.input, args.blade_kind, rng, args.sections, axis, rotor, args.method,
+                    args.cloud_scale)
+    args._auto_cloud = cut
+    args._cloud_sections = cut.sections
+    args.method = cut.method
+    return cut.pointset(), cut.info
 
 
 def cloud_options(args: argparse.Namespace) -> tuple:
     """The cloud options as ``cut_sections`` takes them: (span axis or None, span range or None,
-    rotor axis); a ``--sections`` count outside 2..200 or a bad ``--span-range`` is one line."""
-    if args.sections is not None and not 2 <= args.sections <= 200:
-        raise BladeReconError(f"--sections {args.sections}: give 2 to 200")
-    axis = None
-    if args.span_axis is not None:
-        axis = np.eye(3)["xyz".index(args.span_axis[-1])] * (-1.0 if args.span_axis.startswith("-") else 1.0)
-    rng = _span_range(args.span_range) if args.span_range is not None else None
-    return axis, rng, np.eye(3)["xyz".index(args.rotor_axis)]
+    rotor axis); a ``--sections`` count outside 2..200 or a bad ``--span-range`` is one line
+    (:func:`bladerecon.core.sections.whole_cloud.cloud_options`, which the workbench uses too)."""
+    from bladerecon.core.sections.whole_cloud import cloud_options as options
 
-
-def check_cloud_size(path: str, n: int, other_ways: str = "") -> None:
-    """A cloud too small to cut automatically is one line (``other_ways``: what else the command offers)."""
-    if n < MIN_CLOUD_POINTS:
-        raise BladeReconError(
-            f"{path}: {n} points with no section labels: too few to cut sections from automatically "
-            f"(a whole-blade cloud needs at least {MIN_CLOUD_POINTS}); label the sections (a 'section' column, or "
-            f"blank lines between blocks){other_ways}")
+    return options(args.sections, args.span_axis, args.span_range, args.rotor_axis)
 
 
 def pole_cap_note(surface, refit_error: float, tolerance: float | None) -> dict | None:

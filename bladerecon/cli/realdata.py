@@ -142,20 +142,10 @@ def read_input(args: argparse.Namespace):
 
 
 def _read_cloud(path: str, scale: float, memory_limit: float | None = None):
-    """The cloud (mm, after ``--cloud-scale``): text only, file bytes in messages escaped,
-    coordinates within ±1 km."""
-    from bladerecon.core.sections import slicing
+    """The cloud (mm, after ``--cloud-scale``): :func:`bladerecon.core.sections.whole_cloud.read_cloud_mm`."""
+    from bladerecon.core.sections.whole_cloud import read_cloud_mm
 
-    try:     # read_points decodes Latin-1 where UTF-8 fails: no UnicodeDecodeError comes out
-        P, lines = slicing.read_cloud(path, scale, memory_limit)
-    except BladeReconError as err:
-        raise BladeReconError(shown(str(err), 400)) from None
-    try:
-        check_coordinates(P, lines, path)
-    except BladeReconError as err:
-        scaled = f" (coordinates multiplied by --cloud-scale {scale:g})" if scale != 1.0 else ""
-        raise BladeReconError(f"{err}{scaled}") from None
-    return P, lines
+    return read_cloud_mm(path, scale, memory_limit)
 
 
 def _file_index(lines: np.ndarray) -> np.ndarray:

@@ -186,17 +186,17 @@ def _reconstruct(args: argparse.Namespace, say, step: str | None, report: str | 
         rec = realdata.reconstruct_nongrid(pts, sections.span_axis, args.poles)
     elif args.pairing == "angle":
         rec = reconstruct_paired(pts, sections.span_axis, first_point_is_measured=measured_start)
+    elif autocloud.is_auto(args):
+        # a whole-blade cloud: the surface through its sections fitted to every node (issue 25),
+        # the nodes moved by the probe compensation as the section points were; --tolerance is
+        # then judged on the nodes. The workbench's BladeSurface takes the same path.
+        from bladerecon.core.sections.whole_cloud import cloud_surface
+        rec, cloud_fit, cloud_dist = cloud_surface(
+            args._auto_cloud, pts, sections.span_axis, tolerance=args.tolerance, first_point_is_measured=measured_start,
+            offset=0.0 if compensation is None else compensation["offset_mm"], say=say)
     else:
         rec = reconstruct(pts, sections.span_axis, method=args.method, tolerance=args.tolerance,
                           first_point_is_measured=measured_start)
-        if autocloud.is_auto(args):
-            # a whole-blade cloud: the surface through its sections fitted to every node (issue 25),
-            # the nodes moved by the probe compensation as the section points were; --tolerance is
-            # then judged on the nodes
-            from bladerecon.core.sections.blade_cloud import fit_to_cloud
-            say("fitting the surface to the whole cloud")
-            rec, cloud_fit, cloud_dist = fit_to_cloud(rec, args._auto_cloud,
-                                                      offset=0.0 if compensation is None else compensation["offset_mm"])
     if args.surface == "local-bicubic":
         cloud_dist = None           # the patches are another surface: judged by the section points
         rec = realdata.local_bicubic(rec, args.patches_around, args.fair_surface, pts, args.fair_threshold)

@@ -308,13 +308,15 @@ def _cloud_sections(args, ps):
     stream surfaces; each section's ``cut`` in the JSON says where. A radial rotor's sections are
     measured in m'-theta about ``--rotor-axis`` unless ``--axis`` is given."""
     from bladerecon.cli.autocloud import check_cloud_size, cloud_options
-    from bladerecon.core.sections.blade_cloud import cut_sections, section_set
+    from bladerecon.core.sections.whole_cloud import cut_cloud
 
     P = np.asarray(ps.points, float) * args.cloud_scale
     check_cloud_size(args.input, len(P))
     axis, rng, rotor = cloud_options(args)
-    cs = cut_sections(P, args.blade_kind, rng, args.sections, axis, rotor)
-    ss = compensate(args, section_set(cs, np.asarray(ps.line), args.input))
+    cut = cut_cloud(P, np.asarray(ps.line), args.input, args.blade_kind, rng, args.sections, axis, rotor, method=None,
+                    scale=args.cloud_scale)     # the workbench's BladeSections cuts a cloud by the same call
+    cs = cut.cloud
+    ss = compensate(args, cut.sections)
     radial = cs.info.get("kind") == "stream-surfaces"
     if radial and args.axis is None:
         args.axis = rotor

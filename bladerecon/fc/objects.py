@@ -3,7 +3,10 @@
 
 MeasuredPoints -> BladeSections (LE/TE marked) and BladeSurface (native B-spline face) ->
 DeviationAnalysis (against a nominal shape). Each proxy only adapts: the work is done by
-``bladerecon.core`` (sections, reconstruction) and ``bladerecon.fc.deviation``.
+``bladerecon.core`` (sections, reconstruction) and ``bladerecon.fc.deviation``. A whole-blade
+cloud (a MeasuredPoints with ``Cloud``) takes the command line's path,
+:mod:`bladerecon.core.sections.whole_cloud`: sections cut automatically, the surface fitted to
+every node, what was chosen and why in ``Slicing``.
 
 Rules kept here (they make saved files survive):
 
@@ -32,7 +35,7 @@ from bladerecon.core.errors import BladeReconError
 from bladerecon.fc.convert import compound
 from bladerecon.fc.freecad_env import import_freecad
 
-__all__ = ["MeasuredPoints", "BladeSections", "BladeSurface", "DeviationAnalysis",
+__all__ = ["MeasuredPoints", "BladeSections", "BladeSurface", "DeviationAnalysis", "is_cloud", "CLOUD_INPUTS",
            "make_measured_points", "make_blade_sections", "make_blade_surface", "make_deviation_analysis",
            "point_set", "core_surface", "surface_grid", "section_parameters", "SectionParameters",
            "export_step", "register_view_provider", "VIEW_PROVIDERS", "register_failure_hook", "FAILURE_HOOKS",
@@ -169,35 +172,77 @@ class _Progress:
 
 # --------------------------------------------------------------------------- measured points
 class MeasuredPoints(_Feature):
-    """Measured blade points (mm) with their section labels; the shape is one vertex per point."""
+    """Measured blade points (mm) with their section labels, or a whole-blade cloud (``Cloud``:
+    no labels; BladeSurface and BladeSections cut its sections automatically); the shape is one
+    vertex per point."""
 
     TYPE = "MeasuredPoints"
     PROPERTIES = (
         ("App::PropertyVectorList", "Points", "Points", "measured points (mm), file order", 2),
-        ("App::PropertyIntegerList", "SectionIndex", "Points", "0-based section of each point", 2),
+        ("App::PropertyIntegerList", "SectionIndex", "Points", "0-based section of each point (a cloud: all 0)", 2),
         ("App::PropertyIntegerList", "LineNumbers", "Points", "1-based file line of each point", 2),
         ("App::PropertyStringList", "SectionNames", "Points", "section names, hub to tip as in the file", 1),
         ("App::PropertyString", "SourceFile", "Points", "file the points were read from", 1),
         ("App::PropertyString", "Format", "Points", "csv, xyz-blocks or section-table", 1),
         ("App::PropertyString", "Units", "Points", "length unit of the points", 1),
         ("App::PropertyInteger", "PointCount", "Points", "number of points", 1),
-        ("App::PropertyInteger", "SectionCount", "Points", "number of sections", 1),
+        ("App::PropertyInteger", "SectionCount", "Points", "number of sections (a cloud: 0, cut automatically)", 1),
+        ("App::PropertyBool", "Cloud", "Points",
+         "a whole-blade cloud with no section labels: BladeSurface and BladeSections cut its sections automatically "
+         "(their Cloud properties)", 1),
+        ("App::PropertyFloat", "CloudScale", "Points",
+         "a cloud's unit factor: the file's coordinates times this are the points in mm (1000 for a file in metres, "
+         "25.4 in inches; as --cloud-scale)", 0),
+        ("App::PropertyFloat", "ScaleApplied", "Points", "the CloudScale the Points are multiplied by", 2),
         ("App::PropertyFloat", "ProbeRadius", "Compensation",
          "touch-probe ball radius (mm): the points are ball centres; each is moved this far toward the material, "
-         "along its section curve's normal (0: none)", 0),
+         "along its section curve's normal (a cloud: its cut sections and nodes; 0: none)", 0),
         ("App::PropertyFloat", "Coating", "Compensation",
          "coating thickness (mm) over the part: each point is moved this far toward the material (0: none)", 0),
     )
+
+    def _add_properties(self, obj: Any) -> None:
+        fresh = "CloudScale" not in obj.PropertiesList
+        super()._add_properties(obj)
+        if fresh:                   # files saved before clouds: measured sections, as read
+            obj.CloudScale = obj.ScaleApplied = 1.0
+        obj.setEditorMode("CloudScale", 0 if obj.Cloud else 2)     # sections are read as they are
 
     def compute(self, obj: Any) -> None:
         n = len(obj.Points)
         if len(obj.SectionIndex) != n:
             raise BladeReconError(f"{obj.Label}: {n} points but {len(obj.SectionIndex)} section labels: "
                                   "import the file again")
-        obj.PointCount, obj.SectionCount = n, len(obj.SectionNames)
+        if obj.Cloud:
+            _apply_cloud_scale(obj)
+        obj.PointCount, obj.SectionCount = n, 0 if obj.Cloud else len(obj.SectionNames)
         # the shape shows the points every later step uses: compensated when asked
         pts = point_set(obj).points if n and _offset(obj) else obj.Points
         obj.Shape = compound([Part.Vertex(*map(float, v)) for v in pts]) if n else Part.Shape()
+
+
+def _apply_cloud_scale(obj: Any) -> None:
+    """A cloud's Points multiplied anew when its CloudScale changed (they are held in mm)."""
+    scale, applied = float(obj.CloudScale), float(obj.ScaleApplied or 1.0)
+    if not (np.isfinite(scale) and scale > 0.0):
+        raise BladeReconError(f"{obj.Label}: CloudScale {scale:g}: give a positive factor (1000 for a file in metres, "
+                              "25.4 in inches, 1 in mm)")
+    if scale == applied:
+        return
+    from bladerecon.core.io.outputs import check_coordinates
+
+    P = _array(obj.Points) * (scale / applied)
+    try:
+        check_coordinates(P, obj.LineNumbers if len(obj.LineNumbers) == len(P) else None, obj.SourceFile or obj.Label)
+    except BladeReconError as err:
+        raise BladeReconError(f"{err} (coordinates multiplied by CloudScale {scale:g})") from None
+    obj.Points = _vectors(P)
+    obj.ScaleApplied = scale
+
+
+def is_cloud(obj: Any) -> bool:
+    """True for a MeasuredPoints holding a whole-blade cloud (no section labels)."""
+    return is_type(obj, "MeasuredPoints") and bool(getattr(obj, "Cloud", False))
 
 
 def _offset(obj: Any) -> tuple[float, float]:
@@ -206,24 +251,45 @@ def _offset(obj: Any) -> tuple[float, float]:
     return (r, t) if r or t else ()
 
 
-def make_measured_points(doc: Any, path: str, name: str = "MeasuredPoints") -> Any:
+def make_measured_points(doc: Any, path: str, name: str = "MeasuredPoints", cloud_scale: float = 1.0) -> Any:
     """Read ``path`` (any format of :func:`bladerecon.core.io.readers.read_points`) into a MeasuredPoints.
 
+    A file with no section structure (one block of points, no labels) is a whole-blade cloud
+    (``Cloud``; its sections are cut automatically), read as ``reconstruct CLOUD`` reads it, its
+    coordinates times ``cloud_scale`` (1000 for a file in metres); a cloud under
+    :data:`~bladerecon.core.sections.whole_cloud.MIN_CLOUD_POINTS` points is refused as there.
     Raises :class:`BladeReconError` for a bad file before anything is added to ``doc``.
     """
     from bladerecon.core.io.readers import read_points
 
-    ps = read_points(path)
+    ps = read_points(path, require_sections=False)
+    cloud = not ps.structured
+    if cloud:
+        from bladerecon.core.sections.whole_cloud import check_cloud_size, read_cloud_mm
+
+        if not (np.isfinite(cloud_scale) and cloud_scale > 0.0):
+            raise BladeReconError(f"cloud scale {cloud_scale:g}: give a positive factor (1000 for a file in metres)")
+        P, lines = read_cloud_mm(path, cloud_scale, scale_name="the cloud scale")
+        check_cloud_size(path, len(P))
+        section, names = np.zeros(len(P), dtype=int), []
+    elif cloud_scale != 1.0:
+        raise BladeReconError(f"cloud scale {cloud_scale:g} applies to an unordered cloud; {path} holds "
+                              f"{len(ps.section_names)} sections, read as they are (mm)")
+    else:
+        P, lines, section, names = ps.points, ps.line, ps.section, ps.section_names
     obj = doc.addObject("Part::FeaturePython", name)
     MeasuredPoints(obj)
     obj.Label = f"Measured points ({os.path.basename(path)})"
-    obj.Points = _vectors(ps.points)
-    obj.SectionIndex = [int(i) for i in ps.section]
-    obj.LineNumbers = [int(i) for i in ps.line]
-    obj.SectionNames = [str(s) for s in ps.section_names]
+    obj.Points = _vectors(P)
+    obj.SectionIndex = [int(i) for i in section]
+    obj.LineNumbers = [int(i) for i in lines]
+    obj.SectionNames = [str(s) for s in names]
     obj.SourceFile = os.path.abspath(path)
     obj.Format = ps.format
     obj.Units = "mm"
+    obj.Cloud = cloud
+    obj.CloudScale = obj.ScaleApplied = float(cloud_scale)
+    obj.setEditorMode("CloudScale", 0 if cloud else 2)
     _attach_view(obj, "MeasuredPoints")
     return obj
 
@@ -236,6 +302,9 @@ def point_set(obj: Any):
         raise BladeReconError(f"{getattr(obj, 'Label', obj)} is not a MeasuredPoints object: select imported points")
     n = len(obj.Points)
     lines = np.array(obj.LineNumbers, dtype=int) if len(obj.LineNumbers) == n else np.arange(1, n + 1)
+    if is_cloud(obj):       # one block with no labels, as read_points gives a cloud; compensated where it is cut
+        return PointSet(points=_array(obj.Points), section=np.zeros(n, dtype=int), line=lines, section_names=("1",),
+                        source=obj.SourceFile or obj.Label, format=obj.Format or "csv", structured=False)
     ps = PointSet(points=_array(obj.Points), section=np.array(obj.SectionIndex, dtype=int), line=lines,
                   section_names=tuple(obj.SectionNames), source=obj.SourceFile or obj.Label,
                   format=obj.Format or "csv")
@@ -305,7 +374,8 @@ def flow_of(obj: Any) -> np.ndarray | None:
     return v / n if n > 1e-12 else None
 
 
-def section_parameters(section_set, flow: np.ndarray | None = None) -> SectionParameters:
+def section_parameters(section_set, flow: np.ndarray | None = None,
+                       first_point_is_measured: bool | None = None) -> SectionParameters:
     """Section curves, LE/TE and parameters of every section of a
     :class:`~bladerecon.core.sections.ordering.SectionSet`.
 
@@ -316,6 +386,8 @@ def section_parameters(section_set, flow: np.ndarray | None = None) -> SectionPa
     edge too sparse for a radius gives NaN and a warning, not a failure. ``flow`` (the
     direction the fluid travels): every LE is its section's upstream end; without it the LE
     is guessed by one rule for the whole blade, and the guess is among the warnings.
+    ``first_point_is_measured``: whether each section's first point is where the measurement
+    started (default: unless its points were re-ordered; sections cut from a cloud: False).
     """
     from bladerecon.core.reconstruct import _fit_sections
     from bladerecon.core.surface.section_curves import choose_method
@@ -323,8 +395,9 @@ def section_parameters(section_set, flow: np.ndarray | None = None) -> SectionPa
 
     pts = [s.points for s in section_set.sections]
     curves = _fit_sections(pts, choose_method(pts), None)
-    blade = segment_blade(pts, section_set.span_axis, not section_set.sections[0].reordered, flow=flow,
-                          canonical=True)
+    if first_point_is_measured is None:
+        first_point_is_measured = not section_set.sections[0].reordered
+    blade = segment_blade(pts, section_set.span_axis, first_point_is_measured, flow=flow, canonical=True)
     measured = [measure_section(seg, strict_radius=False) for seg in blade.sections]
 
     def column(name: str) -> np.ndarray:
@@ -340,6 +413,107 @@ def section_parameters(section_set, flow: np.ndarray | None = None) -> SectionPa
         + tuple(f"{s.name}: {w}" for s, m in zip(section_set.sections, measured) for w in m.warnings),
         blade.le_rule, tuple(edge_shape_text(m.le_fit) for m in measured),
         tuple(edge_shape_text(m.te_fit) for m in measured))
+
+
+# --------------------------------------------------------------------------- whole-blade clouds
+#: the choices for cutting a cloud (BladeSurface, BladeSections), as the command line's options
+CLOUD_INPUTS = (
+    ("App::PropertyEnumeration", "CloudBladeKind", "Cloud",
+     "a whole-blade cloud: axial (planes across the span), radial (stream surfaces between hub and shroud) or "
+     "auto (radial when planes cut it into open curves); as --blade-kind", 0),
+    ("App::PropertyEnumeration", "CloudSpanAxis", "Cloud",
+     "a cloud's span direction hub -> tip; auto: found from the cloud (as --span-axis)", 0),
+    ("App::PropertyString", "CloudSpanRange", "Cloud",
+     "a cloud's airfoil span to cut, A:B in mm along the span axis (radial: span fractions 0..1); empty: found "
+     "from the cloud, leaving out the hub fillet and the tip cap (as --span-range)", 0),
+    ("App::PropertyInteger", "CloudSections", "Cloud",
+     "number of sections cut from a cloud; 0: from its density, 6 to 21 (as --sections)", 0),
+    ("App::PropertyEnumeration", "CloudRotorAxis", "Cloud",
+     "with a radial blade: the rotor axis through the origin (as --rotor-axis)", 0),
+    ("App::PropertyStringList", "Slicing", "Cloud",
+     "what was chosen for the cloud and why: span axis, span, kind, sections, slab width, method, fit to the "
+     "cloud (empty for measured sections)", 1),
+    ("App::PropertyString", "SlicingJson", "Cloud", "the same as JSON: reconstruct --json's 'slicing' (and "
+     "'cloud_fit')", 2),
+)
+#: the workbench's names of the choices, in messages
+CLOUD_NAMES = {"sections": "CloudSections", "span_axis": "CloudSpanAxis", "span_range": "CloudSpanRange",
+               "rotor_axis": "CloudRotorAxis", "blade_kind": "CloudBladeKind", "cloud_scale": "CloudScale"}
+_CLOUD_ENUMS = {"CloudBladeKind": (["auto", "axial", "radial"], "auto"),
+                "CloudSpanAxis": (["auto", "x", "y", "z", "-x", "-y", "-z"], "auto"),
+                "CloudRotorAxis": (["x", "y", "z"], "z")}
+
+
+def _init_cloud_inputs(obj: Any, missing: list) -> None:
+    for name, (values, default) in _CLOUD_ENUMS.items():
+        if name in missing:
+            setattr(obj, name, values)
+            setattr(obj, name, default)
+
+
+def _in_workbench_words(message: str) -> str:
+    """A message of the cut naming the command line's options, with the properties' names."""
+    for option, prop in (("--span-range", "CloudSpanRange"), ("--span-axis", "CloudSpanAxis"),
+                         ("--sections", "CloudSections"), ("--blade-kind", "CloudBladeKind"),
+                         ("--rotor-axis", "CloudRotorAxis")):
+        message = message.replace(option, prop)
+    return message
+
+
+def _cloud_choices(obj: Any) -> dict:
+    """The cloud choices of a BladeSurface/BladeSections that differ from 'found from the cloud'."""
+    given = {"CloudBladeKind": obj.CloudBladeKind != "auto", "CloudSpanAxis": obj.CloudSpanAxis != "auto",
+             "CloudSpanRange": bool(obj.CloudSpanRange.strip()), "CloudSections": obj.CloudSections != 0}
+    return {k: v for k, v in given.items() if v}
+
+
+def _cut_linked_cloud(obj: Any, method: str | None):
+    """The sections cut from the cloud linked to ``obj`` as ``reconstruct CLOUD`` cuts them
+    (:func:`bladerecon.core.sections.whole_cloud.cut_cloud`, its options from the Cloud
+    properties); ``method`` 'auto' also chooses the fitting method there."""
+    from bladerecon.core.sections.whole_cloud import check_cloud_size, cloud_options, cut_cloud
+
+    ps = _linked_points(obj)
+    target = obj.Points
+    try:
+        axis, rng, rotor = cloud_options(obj.CloudSections or None,
+                                         None if obj.CloudSpanAxis == "auto" else obj.CloudSpanAxis,
+                                         obj.CloudSpanRange.strip() or None, obj.CloudRotorAxis, CLOUD_NAMES)
+        check_cloud_size(ps.source, len(ps.points))
+        return cut_cloud(np.asarray(ps.points), np.asarray(ps.line), ps.source, obj.CloudBladeKind, rng,
+                         obj.CloudSections or None, axis, rotor, method, scale=float(target.CloudScale))
+    except BladeReconError as err:
+        raise BladeReconError(_in_workbench_words(str(err))) from None
+
+
+def _sections_of(obj: Any):
+    """The ordered sections of the measured sections linked to ``obj``; the Cloud choices are
+    refused there in one line, as the command line refuses its cloud options on such a file."""
+    target = obj.Points
+    given = _cloud_choices(obj)
+    if given and target is not None and is_type(target, "MeasuredPoints"):
+        name = next(iter(given))
+        raise BladeReconError(f"{name} applies to a whole-blade cloud; {target.Label} holds "
+                              f"{target.SectionCount} measured sections: set it back to "
+                              f"{'0' if name == 'CloudSections' else 'empty' if name == 'CloudSpanRange' else 'auto'}")
+    from bladerecon.core.sections.ordering import build_sections
+
+    return build_sections(_linked_points(obj))
+
+
+def _store_slicing(obj: Any, info: dict | None, cloud_fit: dict | None = None, method_note: str = "") -> None:
+    import json
+
+    from bladerecon.core.sections.whole_cloud import slicing_lines
+
+    if info is None:
+        obj.Slicing, obj.SlicingJson = [], ""
+        return
+    lines = slicing_lines(info, cloud_fit)
+    if method_note:
+        lines.insert(len(lines) - 1 - (cloud_fit is not None), method_note)
+    obj.Slicing = lines
+    obj.SlicingJson = json.dumps({"slicing": info, "cloud_fit": cloud_fit})
 
 
 class BladeSections(_Feature):
@@ -370,14 +544,34 @@ class BladeSections(_Feature):
         ("App::PropertyStringList", "TEShape", "Parameters",
          "TE shape per section: circle, ellipse (semi-axes), flat (width, direction) or irregular", 1),
         ("App::PropertyStringList", "Warnings", "Parameters", "values that could not be measured, and why", 1),
-    )
+    ) + CLOUD_INPUTS
+
+    def _add_properties(self, obj: Any) -> None:
+        missing = [p[1] for p in self.PROPERTIES if p[1] not in obj.PropertiesList]
+        super()._add_properties(obj)
+        _init_cloud_inputs(obj, missing)
 
     def compute(self, obj: Any) -> None:
-        from bladerecon.core.sections.ordering import build_sections
-
         from bladerecon.fc.convert import to_part_curve
 
-        params = section_parameters(build_sections(_linked_points(obj)), flow_of(obj))
+        if is_cloud(obj.Points):
+            # sections cut as ``sections CLOUD`` cuts them, moved by the probe compensation there
+            # too; their first points are where the cut began, not where a measurement started
+            with _Progress(f"{obj.Label}: cutting the cloud into sections", 2) as progress:
+                cut = _cut_linked_cloud(obj, None)
+                progress.step()
+                sections = cut.sections
+                offset = _offset(obj.Points)
+                if offset:
+                    from bladerecon.core.surface.compensation import compensate_sections
+
+                    sections = compensate_sections(sections, *offset)
+                params = section_parameters(sections, flow_of(obj), first_point_is_measured=False)
+                progress.step()
+            _store_slicing(obj, cut.info)
+        else:
+            params = section_parameters(_sections_of(obj), flow_of(obj))
+            _store_slicing(obj, None)
         edges = [Part.Edge(to_part_curve(c)) for c in params.curves]
         marks = [Part.Vertex(FreeCAD.Vector(*p)) for p in np.vstack([params.leading_edge, params.trailing_edge])]
         obj.Shape = compound(edges + marks)
@@ -397,11 +591,16 @@ class BladeSections(_Feature):
         obj.LEShape, obj.TEShape = list(params.le_shape), list(params.te_shape)
 
 
-def make_blade_sections(doc: Any, points_obj: Any, name: str = "BladeSections") -> Any:
+def make_blade_sections(doc: Any, points_obj: Any, name: str = "BladeSections", blade_kind: str = "auto",
+                        span_axis: str = "auto", span_range: str = "", sections: int = 0, rotor_axis: str = "z") -> Any:
+    """A BladeSections on ``points_obj``; ``blade_kind`` .. ``rotor_axis`` as :func:`make_blade_surface`'s."""
+    choices = _cloud_choice_values(blade_kind, span_axis, span_range, sections, rotor_axis)
     obj = doc.addObject("Part::FeaturePython", name)
     BladeSections(obj)
     obj.Label = "Blade sections"
     obj.Points = points_obj
+    for prop, value in choices.items():
+        setattr(obj, prop, value)
     _attach_view(obj, "BladeSections")
     return obj
 
@@ -427,29 +626,31 @@ class BladeSurface(_Feature):
         ("App::PropertyInteger", "VDegree", "Result", "degree along the span", 1),
         ("App::PropertyFloat", "NoiseEstimate", "Result", "estimated measurement noise (mm)", 1),
         ("App::PropertyFloat", "RefitError", "Result", "compatible curves vs section curves, max (mm)", 1),
-        ("App::PropertyFloat", "FitMax", "Result", "largest distance measured point - surface (mm)", 1),
-        ("App::PropertyFloat", "FitRms", "Result", "RMS distance measured point - surface (mm)", 1),
-    )
+        ("App::PropertyFloat", "FitMax", "Result",
+         "largest distance measured point - surface (mm); a cloud: its nodes between the end sections", 1),
+        ("App::PropertyFloat", "FitRms", "Result",
+         "RMS distance measured point - surface (mm); a cloud: its nodes between the end sections", 1),
+    ) + CLOUD_INPUTS
 
     def _add_properties(self, obj: Any) -> None:
-        fresh = "Method" not in obj.PropertiesList
+        missing = [p[1] for p in self.PROPERTIES if p[1] not in obj.PropertiesList]
         super()._add_properties(obj)
-        if fresh:
+        if "Method" in missing:
             obj.Method = METHODS
             obj.Method = "auto"
+        _init_cloud_inputs(obj, missing)
 
     def compute(self, obj: Any) -> str | None:
         from bladerecon.core.geometry.projection import project_points_to_surface
         from bladerecon.core.reconstruct import reconstruct, start_upstream
-        from bladerecon.core.sections.ordering import build_sections
-
-        from bladerecon.fc.convert import make_face
 
         if obj.Tolerance < 0:
             raise BladeReconError(f"{obj.Label}: Tolerance {obj.Tolerance} mm: give 0 (automatic) or a positive distance")
         tolerance = obj.Tolerance if obj.Method == "approximate" and obj.Tolerance > 0 else None
+        if is_cloud(obj.Points):
+            return self._compute_cloud(obj, tolerance)
         with _Progress(f"{obj.Label}: reconstructing", 3) as progress:
-            sections = build_sections(_linked_points(obj))
+            sections = _sections_of(obj)
             pts = [s.points for s in sections.sections]
             measured_start = not sections.sections[0].reordered
             flow = flow_of(obj)
@@ -461,30 +662,91 @@ class BladeSurface(_Feature):
             progress.step()
             proj = project_points_to_surface(rec.surface, np.concatenate(pts), rec.point_u, rec.point_v)
             progress.step()
+        _store_slicing(obj, None)
+        return self._store(obj, rec, rec.choice.reason, proj.distance, tolerance)
+
+    def _compute_cloud(self, obj: Any, tolerance: float | None) -> str | None:
+        """A whole-blade cloud by the path of ``reconstruct CLOUD`` (issue 25): sections cut and
+        the method chosen on the cloud (Method auto), the surface through the sections fitted to
+        every node, and judged by the nodes (FitMax, FitRms), not the section points."""
+        from bladerecon.core.geometry.projection import project_points_to_surface
+        from bladerecon.core.reconstruct import start_upstream
+        from bladerecon.core.sections.whole_cloud import cloud_surface
+
+        with _Progress(f"{obj.Label}: cutting the cloud and reconstructing", 3) as progress:
+            cut = _cut_linked_cloud(obj, obj.Method)
+            progress.step()
+            sections = cut.sections
+            offset = _offset(obj.Points)
+            if offset:                  # as reconstruct --probe-radius/--coating: the sections, then the nodes
+                from bladerecon.core.surface.compensation import compensate_sections
+
+                sections = compensate_sections(sections, *offset)
+            pts = [s.points for s in sections.sections]
+            measured_start = not sections.sections[0].reordered
+            flow = flow_of(obj)
+            if flow is not None:
+                pts, measured_start = start_upstream(pts, flow), True
+            rec, cloud_fit, cloud_dist = cloud_surface(cut, pts, sections.span_axis, tolerance, measured_start,
+                                                       offset=float(sum(offset)))
+            progress.step()
+            if cloud_dist is None:      # the sections' surface kept (too few nodes): judged by the section points
+                cloud_dist = project_points_to_surface(rec.surface, np.concatenate(pts), rec.point_u,
+                                                       rec.point_v).distance
+            progress.step()
+        note = "" if "method_reason" in cut.info else f"method: {cut.method} (the Method property)"
+        _store_slicing(obj, cut.info, cloud_fit, note)
+        return self._store(obj, rec, cut.info.get("method_reason", rec.choice.reason), cloud_dist, tolerance,
+                           "cloud node" if cloud_fit and cloud_fit.get("fitted") else "section point")
+
+    @staticmethod
+    def _store(obj: Any, rec, reason: str, distance: np.ndarray, tolerance: float | None,
+               judged: str = "measured point") -> str | None:
+        from bladerecon.fc.convert import make_face
+
         obj.Shape = make_face(rec.surface)
         s = rec.surface
-        obj.MethodUsed, obj.MethodReason = rec.choice.method, rec.choice.reason
+        obj.MethodUsed, obj.MethodReason = rec.choice.method, reason
         obj.UPoles, obj.VPoles = int(s.shape[0]), int(s.shape[1])
         obj.UDegree, obj.VDegree = int(s.u_degree), int(s.v_degree)
         obj.NoiseEstimate, obj.RefitError = float(rec.choice.noise_mm), float(rec.refit_error)
-        obj.FitMax = float(proj.distance.max())
-        obj.FitRms = float(np.sqrt(np.mean(proj.distance ** 2)))
+        obj.FitMax = float(distance.max())
+        obj.FitRms = float(np.sqrt(np.mean(distance ** 2)))
         if tolerance is not None and obj.FitMax > tolerance:
-            return (f"tolerance not met: the largest distance of a measured point is {obj.FitMax * 1000:.1f} µm, "
+            return (f"tolerance not met: the largest distance of a {judged} is {obj.FitMax * 1000:.1f} µm, "
                     f"over the {tolerance * 1000:.1f} µm asked ({obj.UPoles} x {obj.VPoles} poles)")
         return None
 
 
 def make_blade_surface(doc: Any, points_obj: Any, method: str = "auto", tolerance: float = 0.0,
-                       name: str = "BladeSurface") -> Any:
+                       name: str = "BladeSurface", blade_kind: str = "auto", span_axis: str = "auto",
+                       span_range: str = "", sections: int = 0, rotor_axis: str = "z") -> Any:
+    """A BladeSurface on ``points_obj``; ``blade_kind`` .. ``rotor_axis``: the choices for a
+    whole-blade cloud (its Cloud properties; the defaults find everything from the cloud)."""
+    choices = _cloud_choice_values(blade_kind, span_axis, span_range, sections, rotor_axis)
     obj = doc.addObject("Part::FeaturePython", name)
     BladeSurface(obj)
     obj.Label = "Blade surface"
     obj.Points = points_obj
     obj.Method = method
     obj.Tolerance = float(tolerance)
+    for prop, value in choices.items():
+        setattr(obj, prop, value)
     _attach_view(obj, "BladeSurface")
     return obj
+
+
+def _cloud_choice_values(blade_kind: str, span_axis: str, span_range: str, sections: int, rotor_axis: str) -> dict:
+    """The Cloud properties' values, checked (one line for a value the property cannot take)."""
+    out = {}
+    for prop, value in (("CloudBladeKind", blade_kind), ("CloudSpanAxis", span_axis), ("CloudRotorAxis", rotor_axis)):
+        values = _CLOUD_ENUMS[prop][0]
+        if value not in values:
+            raise BladeReconError(f"{prop} '{str(value)[:20]}': give one of {', '.join(values)}")
+        out[prop] = value
+    out["CloudSpanRange"] = str(span_range or "")
+    out["CloudSections"] = int(sections or 0)
+    return out
 
 
 def core_surface(obj: Any):
@@ -618,6 +880,7 @@ class DeviationJob:
     plan: str = ""                  # inspection plan file (issue 19), "" for none
     pointset: Any = None            # the measured PointSet (sections) when there is a plan
     flow: Any = None                # direction the fluid travels, for the plan's zones (issue 24)
+    offset: float = 0.0             # a cloud's probe radius + coating (mm): moved along the nominal's normals
 
 
 @dataclass
@@ -650,6 +913,11 @@ def deviation_job(measured: Any, nominal: Any, surface: Any, alignment: str, tol
         raise BladeReconError(f"{label}: Tolerance {tolerance}: give a positive tolerance in mm")
     core = core_surface(surface) if surface is not None else None
     points = np.ascontiguousarray(ps.points, float)
+    # a cloud is compensated as ``deviation CLOUD --probe-radius`` does: along the nominal's normals
+    offset = float(sum(_offset(measured))) if is_cloud(measured) else 0.0
+    if offset and plan:
+        raise BladeReconError(f"{label}: ProbeRadius and Coating of a cloud are not applied with a Plan yet (as "
+                              "deviation --plan): set them to 0, or compare the reconstructed surface's sections")
     if plan:
         from bladerecon.core.inspection.plan import read_inspection_plan
 
@@ -657,7 +925,7 @@ def deviation_job(measured: Any, nominal: Any, surface: Any, alignment: str, tol
     return DeviationJob(points, ps.source, shape.copy() if copy_shape else shape, nominal.Label, core, alignment,
                         float(tolerance), bool(robust), deviation_key(measured, nominal, surface, alignment, tolerance,
                                                                       robust, plan=plan, flow=flow),
-                        plan, ps if plan else None, flow)
+                        plan, ps if plan else None, flow, offset)
 
 
 def deviation_key(measured: Any, nominal: Any, surface: Any, alignment: str, tolerance: float, robust: bool,
@@ -672,6 +940,8 @@ def deviation_key(measured: Any, nominal: Any, surface: Any, alignment: str, tol
 
     key = (shape_of(measured), getattr(measured, "PointCount", None), shape_of(nominal), shape_of(surface),
            alignment, float(tolerance), bool(robust))
+    if is_cloud(measured) and _offset(measured):     # a cloud's shape shows its points uncompensated
+        key += (_offset(measured),)
     if flow is not None:
         key += (tuple(float(c) for c in flow),)
     return key + ((plan, _mtime(plan)),) if plan else key
@@ -713,16 +983,17 @@ def measure_job(job: DeviationJob, step: Any = None) -> DeviationMeasurement:
             if res.alignment is not None:
                 grid = apply_transform(grid, res.alignment.matrix)
             grid_dev = nominal.measure(grid).signed
-    elif job.alignment == "none":
+    elif job.alignment == "none" and not job.offset:
         # one projection for points and surface grid: its set-up is most of the cost
         res, grid_dev = _measure_together(job.points, grid, nominal, job.tolerance, job.source)
         step()
     else:
         res = measure_deviation(job.points, nominal, job.alignment, job.tolerance, source=job.source,
-                                robust=job.robust)
+                                robust=job.robust, offset=job.offset)
         step()
         if len(grid):
-            grid = apply_transform(grid, res.alignment.matrix)
+            if res.alignment is not None:
+                grid = apply_transform(grid, res.alignment.matrix)
             grid_dev = nominal.measure(grid).signed
     matrix = res.alignment.matrix if res.alignment is not None else np.eye(4)
     step()

@@ -20,9 +20,9 @@ import FreeCADGui
 from bladerecon.core.errors import BladeReconError
 from bladerecon.fc import objects
 
-__all__ = ["import_points", "import_nominal", "analyse_sections", "reconstruct_surface", "compare_with_nominal",
-           "show_deviation_map", "map_state", "set_surface_analysis", "export_step", "write_report", "show_error",
-           "off_the_gui_thread", "Cancelled", "selected", "find_object"]
+__all__ = ["import_points", "ask_cloud_scale", "import_nominal", "analyse_sections", "reconstruct_surface",
+           "compare_with_nominal", "show_deviation_map", "map_state", "set_surface_analysis", "export_step",
+           "write_report", "show_error", "off_the_gui_thread", "Cancelled", "selected", "find_object"]
 
 _PARAMS = "User parameter:BaseApp/Preferences/Mod/BladeRecon"
 POINT_FILTER = "Measured points (*.csv *.txt *.xyz *.dat *.asc *.pts *.ply *.pcd);;All files (*)"
@@ -156,16 +156,23 @@ def _view_step(doc: Any, title: str, lines: list[str]) -> None:
     doc.commitTransaction()
 
 
-def import_points(path: str) -> Any:
+def import_points(path: str, cloud_scale: float | None = None) -> Any:
     """Import ``path`` as a MeasuredPoints object into the active document (a new one if none).
 
     A file with fewer than 2 sections imports (its sections can be analysed) with a warning:
-    it cannot make a surface.
+    it cannot make a surface. A file with no section structure is a whole-blade cloud (its
+    sections are cut automatically), its coordinates times ``cloud_scale`` (None: asked in a
+    dialog with the GUI up, else 1); one too small to cut is refused in the command line's line.
     """
     from bladerecon.core.io.readers import read_points
 
     try:
-        ps = read_points(path)  # a bad file is reported here, before the document is touched
+        # a bad file is reported here, before the document is touched
+        ps = read_points(path, require_sections=False)
+        if not ps.structured:
+            from bladerecon.core.sections.whole_cloud import check_cloud_size
+
+            check_cloud_size(path, len(ps.points))
     except BladeReconError as err:
         show_error(str(err))
         return None
@@ -173,10 +180,21 @@ def import_points(path: str) -> Any:
         FreeCAD.Console.PrintLog(traceback.format_exc())
         show_error(f"cannot read {path}: {type(err).__name__}: {err}")
         return None
+    scale = ""
+    if not ps.structured:
+        if cloud_scale is None:
+            cloud_scale = ask_cloud_scale(path, ps.points) if FreeCAD.GuiUp else 1.0
+            if cloud_scale is None:
+                return None
+        scale = f", cloud_scale={float(cloud_scale)!r}"
     doc = FreeCAD.ActiveDocument or FreeCAD.newDocument()
     obj = _run(doc, "Import measured points",
-               [f"_br_points = bro.make_measured_points(App.getDocument({doc.Name!r}), {path!r})"], "_br_points")
-    if obj is not None and len(ps.section_names) < 2:
+               [f"_br_points = bro.make_measured_points(App.getDocument({doc.Name!r}), {path!r}{scale})"], "_br_points")
+    if obj is not None and not ps.structured:
+        FreeCAD.Console.PrintMessage(
+            f"BladeRecon: {os.path.basename(path)}: a whole-blade cloud of {len(ps.points)} points (coordinates "
+            f"times {float(cloud_scale):g}): Reconstruct and Analyse sections cut its sections automatically\n")
+    elif obj is not None and len(ps.section_names) < 2:
         FreeCAD.Console.PrintWarning(
             f"BladeRecon: {os.path.basename(path)}: {len(ps.section_names)} section only: a surface needs at "
             "least 2 sections (Reconstruct cannot run on it)\n")
@@ -184,6 +202,26 @@ def import_points(path: str) -> Any:
         obj.ViewObject.PointSize = SECTION_POINT_SIZE
         FreeCADGui.SendMsgToActiveView("ViewFit")
     return obj
+
+
+def ask_cloud_scale(path: str, points: Any) -> float | None:
+    """The unit factor of a cloud (its coordinates times it are mm), asked in a dialog that shows
+    the cloud's extent; proposed: 1000 when the cloud is under 2 units across (metres), else the
+    last one given or 1. None when the user cancels."""
+    import numpy as np
+
+    params = FreeCAD.ParamGet(_PARAMS)
+    ext = np.ptp(np.asarray(points, float), axis=0)
+    proposed = 1000.0 if float(np.linalg.norm(ext)) < 2.0 else params.GetFloat("CloudScale", 1.0) or 1.0
+    qt = _qt_widgets()
+    text = (f"{os.path.basename(path)}: {len(points)} points with no section labels, a whole-blade cloud "
+            f"(its sections are cut automatically).\nExtent {ext[0]:.4g} x {ext[1]:.4g} x {ext[2]:.4g} in the "
+            "file's units.\n\nMultiply the coordinates by (mm: 1, metres: 1000, inches: 25.4):")
+    scale, ok = qt.QInputDialog.getDouble(FreeCADGui.getMainWindow(), "Cloud units", text, proposed, 1e-6, 1e9, 6)
+    if not ok:
+        return None
+    params.SetFloat("CloudScale", scale)
+    return float(scale)
 
 
 def import_nominal(path: str) -> Any:
@@ -205,12 +243,15 @@ def analyse_sections(points_obj: Any) -> Any:
                 "_br_sections")
 
 
-def reconstruct_surface(points_obj: Any, method: str = "auto", tolerance: float = 0.0) -> Any:
-    """Add a BladeSurface reconstructed from ``points_obj`` (method, tolerance in mm; 0 = automatic)."""
+def reconstruct_surface(points_obj: Any, method: str = "auto", tolerance: float = 0.0, **cloud: Any) -> Any:
+    """Add a BladeSurface reconstructed from ``points_obj`` (method, tolerance in mm; 0 = automatic).
+    ``cloud``: the choices for a whole-blade cloud (``blade_kind``, ``span_axis``, ``span_range``,
+    ``sections``, ``rotor_axis`` of :func:`bladerecon.fc.objects.make_blade_surface`)."""
     doc = points_obj.Document
+    extra = "".join(f", {k}={v!r}" for k, v in cloud.items())
     return _run(doc, "Reconstruct blade surface",
                 [f"_br_surface = bro.make_blade_surface(App.getDocument({doc.Name!r}), {_ref(points_obj)}, "
-                 f"method={method!r}, tolerance={float(tolerance)!r})"], "_br_surface")
+                 f"method={method!r}, tolerance={float(tolerance)!r}{extra})"], "_br_surface")
 
 
 def compare_with_nominal(measured: Any, nominal: Any, surface: Any = None, alignment: str = "none",
@@ -398,7 +439,8 @@ def _snapshot(analysis: Any) -> Any:
     m = analysis.Measured
     measured = None if m is None else NS(
         Proxy=proxy("MeasuredPoints"), Label=m.Label, Points=list(m.Points), SectionIndex=list(m.SectionIndex),
-        LineNumbers=list(m.LineNumbers), SectionNames=list(m.SectionNames), SourceFile=m.SourceFile, Format=m.Format)
+        LineNumbers=list(m.LineNumbers), SectionNames=list(m.SectionNames), SourceFile=m.SourceFile, Format=m.Format,
+        Cloud=bool(getattr(m, "Cloud", False)))
     n = analysis.Nominal
     nominal = None if n is None else NS(Label=n.Label, Shape=n.Shape.copy())
     s = analysis.Surface

@@ -75,7 +75,8 @@ class _OnObject(_Command):
 class ImportPoints(_Command):
     icon = "BladeRecon_ImportPoints"
     menu_text = "Import measured points"
-    tool_tip = "Read a file of measured blade-section points (mm): CSV x,y,z,section, 'x y z' blocks or a section table"
+    tool_tip = ("Read a file of measured blade-section points (mm): CSV x,y,z,section, 'x y z' blocks or a section "
+                "table; a file with no sections is a whole-blade cloud (its units asked, its sections cut automatically)")
 
     def Activated(self) -> None:  # noqa: N802
         params = FreeCAD.ParamGet(_PARAMS)

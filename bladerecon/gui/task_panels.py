@@ -50,18 +50,32 @@ class _Panel:
 
 
 class ReconstructPanel(_Panel):
-    """Method and tolerance, then :func:`actions.reconstruct_surface`."""
+    """Method and tolerance (and, for a whole-blade cloud, the choices of its cut: blade kind,
+    span axis, span range, sections, rotor axis), then :func:`actions.reconstruct_surface`."""
 
     FORM = "Reconstruct"
 
     def __init__(self, points_obj: Any) -> None:
+        from bladerecon.fc.objects import is_cloud
+
         super().__init__()
         self.points = points_obj
-        self.form.source.setText(f"Points: {points_obj.Label} ({points_obj.PointCount} points, "
-                                 f"{points_obj.SectionCount} sections, {points_obj.Units})")
+        self.cloud = is_cloud(points_obj)
+        what = (f"a whole-blade cloud, coordinates times {points_obj.CloudScale:g}" if self.cloud
+                else f"{points_obj.SectionCount} sections")
+        self.form.source.setText(f"Points: {points_obj.Label} ({points_obj.PointCount} points, {what}, "
+                                 f"{points_obj.Units})")
+        self.form.rotorAxis.setCurrentText("z")
+        self.form.cloud.setVisible(self.cloud)
 
     def options(self) -> dict:
-        return {"method": self.form.method.currentText(), "tolerance": self.form.tolerance.value()}
+        options = {"method": self.form.method.currentText(), "tolerance": self.form.tolerance.value()}
+        if self.cloud:
+            f = self.form
+            options.update(blade_kind=f.bladeKind.currentText(), span_axis=f.spanAxis.currentText(),
+                           span_range=f.spanRange.text().strip(), sections=f.sections.value(),
+                           rotor_axis=f.rotorAxis.currentText())
+        return options
 
     def run(self, **options: Any) -> Any:
         return actions.reconstruct_surface(self.points, **options)
