@@ -4,11 +4,12 @@
 It is run into a temporary folder and every file it writes is compared with the one in
 ``resources/sample/`` and ``resources/examples/``, which must hold nothing else.
 
-``nominal.step`` is compared byte for byte when this machine's OpenCASCADE is the one that
-wrote the shipped file (its STEP header names the writer's version, e.g. ``Open CASCADE
-STEP processor 7.6``). Another OpenCASCADE writes another header and may number and format
-the entities differently, so there the two files are read back and their B-spline surfaces
-compared (poles, knots, multiplicities, degrees, periodicity) instead.
+``nominal.step`` is compared byte for byte, and where the bytes differ the two files are read
+back and their B-spline surfaces compared (poles, knots, multiplicities, degrees, periodicity;
+to 1e-9 mm): another OpenCASCADE writes another header (it names the writer's version, e.g.
+``Open CASCADE STEP processor 7.6``) and may number and format the entities differently, and
+on another CPU the same one may print a pole's 15th digit differently (numpy's BLAS kernel,
+chosen per CPU, rounds its sums differently).
 """
 from __future__ import annotations
 
@@ -62,9 +63,13 @@ def test_nominal_step_is_reproduced(regenerated):
     made = (regenerated / "sample" / "nominal.step").read_bytes()
     shipped = (SAMPLE / "nominal.step").read_bytes()
     writer_made, writer_shipped = _WRITER.search(made).group(1), _WRITER.search(shipped).group(1)
-    if writer_made == writer_shipped:
-        assert made == shipped, f"nominal.step differs from the shipped one ({writer_made} both)"
+    if made == shipped:
         return
+    # Not byte for byte: another OCC writer, or the same one fed poles that differ in the last of
+    # their 15 printed digits. The BLAS kernel numpy uses is chosen per CPU (OpenBLAS: Haswell,
+    # SkylakeX, Zen, ...), and its sums round differently: an AMD EPYC machine with the same
+    # packages wrote 15.902711298796 where the shipped file (made on another CPU) has ...797.
+    # The surface is then compared as geometry: the same knots and poles to 1e-9 mm.
     import Part
 
     def surface(data: bytes, name: str):
