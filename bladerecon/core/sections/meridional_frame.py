@@ -40,6 +40,7 @@ import numpy as np
 from scipy.interpolate import BSpline, make_lsq_spline
 
 from bladerecon.core.errors import BladeReconError
+from bladerecon.core.sections.chord_lines import chord_normal_crossings
 from bladerecon.core.sections.segmentation import NONPLANAR_LIMIT, segment_section
 
 __all__ = ["RevolutionSurface", "StreamSurfaceFit", "stream_surface", "cylindrical", "measure_meridional",
@@ -311,16 +312,36 @@ def _rhumb_length(surf: RevolutionSurface, p0: np.ndarray, p1: np.ndarray) -> fl
     return float(np.linalg.norm(p1 - p0) * 0.5 * (surf.scale_at(x) @ _GL_W))
 
 
-def _surface_area(surf: RevolutionSurface, seg_c) -> float:
-    """Area on the surface (mm²) of a profile segmented in the conformal plane: ∬ (r/r_ref)² dA
-    = ∮ F(x) dy, F(x) = ∫ (r/r_ref)² dx (trapezoids on 4001 points), over its dense loop."""
+def _offset_stations(surf: RevolutionSurface, le2: np.ndarray, u: np.ndarray, chord_c: float, offsets) -> list:
+    """For each offset d (mm on the surface): the conformal distances from the LE along the
+    chord of the stations d from the LE and d from the TE, the lengths measured on the surface
+    along the chord (∫ r/r_ref dℓ, trapezoids on 4001 points); None beyond the chord."""
+    s = np.linspace(0.0, chord_c, 4001)
+    sc = surf.scale_at(le2[0] + s * u[0])
+    L = np.concatenate([[0.0], np.cumsum(0.5 * (sc[1:] + sc[:-1]) * np.diff(s))])
+    out = []
+    for d in offsets:
+        inside = 0.0 <= d <= L[-1]
+        out.append((float(np.interp(d, L, s)) if inside else None,
+                    float(np.interp(L[-1] - d, L, s)) if inside else None))
+    return out
+
+
+def _conformal_loop(seg_c) -> np.ndarray:
+    """The dense closed profile of a section segmented in the conformal plane, as (x, y) there."""
     from bladerecon.core.geometry.bspline import evaluate_curve
 
     lo, hi = seg_c.curve.domain
     loop = seg_c.table_points(_AREA_SAMPLES)
     if loop is None:
         loop = evaluate_curve(seg_c.curve, lo + (hi - lo) * np.arange(_AREA_SAMPLES) / _AREA_SAMPLES)
-    xy = seg_c.frame.to_space(loop)[:, :2]           # the segmentation's plane frame -> conformal (x, y)
+    return seg_c.frame.to_space(loop)[:, :2]           # the segmentation's plane frame -> conformal (x, y)
+
+
+def _surface_area(surf: RevolutionSurface, seg_c) -> float:
+    """Area on the surface (mm²) of a profile segmented in the conformal plane: ∬ (r/r_ref)² dA
+    = ∮ F(x) dy, F(x) = ∫ (r/r_ref)² dx (trapezoids on 4001 points), over its dense loop."""
+    xy = _conformal_loop(seg_c)
     x, y = xy[:, 0], xy[:, 1]
     grid = np.linspace(x.min(), x.max(), 4001)
     s2 = surf.scale_at(grid) ** 2
@@ -345,7 +366,7 @@ def _peak(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
 
 
 def measure_meridional(seg, measure, axis=None, axis_point=None, strict_radius: bool = True,
-                       fractions: tuple = ()) -> tuple[dict | None, str | None]:
+                       fractions: tuple = (), offsets: tuple = ()) -> tuple[dict | None, str | None]:
     """The m′–θ block of one segmented non-planar section, or (None, why not).
 
     The section's points (rebuilt from the segmentation: its plane points and offsets) are
@@ -355,9 +376,12 @@ def measure_meridional(seg, measure, axis=None, axis_point=None, strict_radius: 
     the span-normal measurement. Angles are taken as measured (the map is conformal); lengths
     are scaled to mm on the surface with the local radius: ``chord_mm`` the surface length of
     the straight conformal chord (a rhumb line, ∫ r/r_ref dℓ), thicknesses and radii × r/r_ref
-    at their circle's centre. ``fractions`` (of the conformal chord): the thickness there
-    (camber-line-normal convention) in mm on the surface; ``camber_height_mm`` likewise at its
-    place; ``area_mm2`` the profile's area on the surface, ∬ (r/r_ref)² over the conformal
+    at their circle's centre. ``fractions`` (of the conformal chord): the thickness there in mm on
+    the surface, in both conventions (camber-line normal: the inscribed diameter × r/r_ref at its
+    centre; chord normal: the surface length of the conformal line ⟂ chord across the profile,
+    ∫ r/r_ref dℓ); ``offsets`` (mm on the surface along the chord from the LE and from the TE,
+    the rhumb line's own length): the thickness there in both conventions (:func:`_offset_stations`);
+    ``camber_height_mm`` likewise at its place; ``area_mm2`` the profile's area on the surface, ∬ (r/r_ref)² over the conformal
     profile (Green's theorem on the dense loop: ∮ F(x) dy with F′ = (r/r_ref)²).
     """
     if seg.offsets is None:
@@ -400,6 +424,25 @@ def measure_meridional(seg, measure, axis=None, axis_point=None, strict_radius: 
     thick_frac = {f"{f:g}": (float(2 * np.interp(f * chord_c, xs, hs)) if xs[0] <= f * chord_c <= xs[-1] else None)
                   for f in fractions}
     v = np.array([-u[1], u[0]])
+    loop = _conformal_loop(seg_c)
+
+    def camber_normal(x):
+        return float(2 * np.interp(x, xs, hs)) if x is not None and xs[0] <= x <= xs[-1] else None
+
+    def chord_normal(x):
+        if x is None:
+            return None
+        c = chord_normal_crossings(loop, le2, u, [x])[0]
+        if c is None:
+            return None
+        a, b = le2 + x * u + c[0] * v, le2 + x * u + c[1] * v
+        return _rhumb_length(surf, a, b)
+
+    thick_frac_cn = {f"{f:g}": chord_normal(f * chord_c) for f in fractions}
+    thick_at, thick_at_cn = {}, {}
+    for off, (x_le, x_te) in zip(offsets, _offset_stations(surf, le2, u, chord_c, offsets)):
+        for name, x in (("le", x_le), ("te", x_te)):
+            thick_at[f"{name}+{off:g}"], thick_at_cn[f"{name}+{off:g}"] = camber_normal(x), chord_normal(x)
     yc = (cs - le2) @ v
     k_c = int(np.argmax(np.abs(yc)))
     camber_mm = float(abs(yc[k_c]) * surf.scale_at(cs[k_c:k_c + 1, 0])[0])
@@ -419,7 +462,9 @@ def measure_meridional(seg, measure, axis=None, axis_point=None, strict_radius: 
              "max_thickness_mm": 2.0 * r_max, "max_thickness_pos_frac": float(x_max / chord_c),
              "max_thickness_conformal_mm": pc.max_thickness,
              "le_radius_mm": radius(pc.le_radius, pc.le_center), "te_radius_mm": radius(pc.te_radius, pc.te_center),
-             "thickness_at_fraction_mm": thick_frac, "camber_height_mm": camber_mm,
+             "thickness_at_fraction_mm": thick_frac, "thickness_at_fraction_chord_normal_mm": thick_frac_cn,
+             "thickness_at_mm": thick_at, "thickness_at_chord_normal_mm": thick_at_cn,
+             "camber_height_mm": camber_mm,
              "camber_height_pos_frac": float(xs[k_c] / chord_c), "area_mm2": _surface_area(surf, seg_c),
              "fit": fit.as_dict(), "warnings": list(pc.warnings)}
     return block, None

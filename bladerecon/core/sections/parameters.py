@@ -41,6 +41,7 @@ from scipy.spatial import cKDTree
 
 from bladerecon.core.geometry.bspline import curve_derivatives, evaluate_curve
 from bladerecon.core.errors import BladeReconError
+from bladerecon.core.sections.chord_lines import chord_normal_crossings
 from bladerecon.core.sections.edge_shape import edge_shape
 from bladerecon.core.sections.segmentation import LE, PRESSURE, SUCTION, TE, Segmentation
 
@@ -645,19 +646,7 @@ def _ends_from_circles(seg: Segmentation, le_c, le_r, te_c, te_r) -> tuple[np.nd
 def _chord_normal_thickness(loop: np.ndarray, le: np.ndarray, u: np.ndarray, xs) -> list:
     """Thickness perpendicular to the chord at chordwise distances xs from the LE (mm): the
     distance between the outermost crossings of the profile with that line; None off the profile."""
-    v = np.array([-u[1], u[0]])
-    X, Y = (loop - le) @ u, (loop - le) @ v
-    X2, Y2 = np.roll(X, -1), np.roll(Y, -1)
-    out = []
-    for x in xs:
-        m = (X - x) * (X2 - x) <= 0
-        m &= X != X2
-        if m.sum() < 2:
-            out.append(None)
-            continue
-        y = Y[m] + (x - X[m]) * (Y2[m] - Y[m]) / (X2[m] - X[m])
-        out.append(float(y.max() - y.min()))
-    return out
+    return [None if c is None else c[1] - c[0] for c in chord_normal_crossings(loop, le, u, xs)]
 
 
 def measure_section(seg: Segmentation, offsets: tuple[float, ...] = (), n_points: int | None = None,
@@ -756,7 +745,7 @@ def measure_section(seg: Segmentation, offsets: tuple[float, ...] = (), n_points
               "centroid": seg.lift(centroid)[0].tolist(), "le_camber": ends_camber[0], "te_camber": ends_camber[1]}
     if projection == "span_normal":
         from bladerecon.core.sections.meridional_frame import measure_meridional
-        block, why = measure_meridional(seg, measure_section, axis, axis_point, strict_radius, fractions)
+        block, why = measure_meridional(seg, measure_section, axis, axis_point, strict_radius, fractions, offsets)
         gauges["meridional"] = block
         if why:
             warnings.append(why)
