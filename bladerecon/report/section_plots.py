@@ -119,7 +119,9 @@ def _edge_words(params, which: str) -> str:
         return f"ellipse {fit['ellipse']['a_mm']:.3f} × {fit['ellipse']['b_mm']:.3f} mm"
     if fit.get("shape") == "flat":
         f = fit["flat"]
-        return f"flat {_f(f['width_mm'])} mm wide" if f["width_mm"] is not None else f"flat {f['length_mm']:.3f} mm long"
+        if f["width_mm"] is None:
+            return f"flat {f['length_mm']:.3f} mm long"
+        return f"flat {f['width_mm']:.3f} mm wide"
     return f"circle r {_f(getattr(params, f'{which}_radius'))} mm"
 
 

@@ -381,8 +381,9 @@ def measure_meridional(seg, measure, axis=None, axis_point=None, strict_radius: 
     centre; chord normal: the surface length of the conformal line ⟂ chord across the profile,
     ∫ r/r_ref dℓ); ``offsets`` (mm on the surface along the chord from the LE and from the TE,
     the rhumb line's own length): the thickness there in both conventions (:func:`_offset_stations`);
-    ``camber_height_mm`` likewise at its place; ``area_mm2`` the profile's area on the surface, ∬ (r/r_ref)² over the conformal
-    profile (Green's theorem on the dense loop: ∮ F(x) dy with F′ = (r/r_ref)²).
+    ``camber_height_mm`` likewise at its place; ``area_mm2`` the profile's area on the surface,
+    ∬ (r/r_ref)² over the conformal profile (Green's theorem on the dense loop: ∮ F(x) dy with
+    F′ = (r/r_ref)²).
     """
     if seg.offsets is None:
         return None, "no out-of-plane offsets kept"
@@ -421,8 +422,6 @@ def measure_meridional(seg, measure, axis=None, axis_point=None, strict_radius: 
         return None if rad is None or centre is None else float(rad * surf.scale_at(centre[:1])[0])
 
     xs, hs, cs = xc[order], half_mm[order], cam[order]
-    thick_frac = {f"{f:g}": (float(2 * np.interp(f * chord_c, xs, hs)) if xs[0] <= f * chord_c <= xs[-1] else None)
-                  for f in fractions}
     v = np.array([-u[1], u[0]])
     loop = _conformal_loop(seg_c)
 
@@ -438,6 +437,7 @@ def measure_meridional(seg, measure, axis=None, axis_point=None, strict_radius: 
         a, b = le2 + x * u + c[0] * v, le2 + x * u + c[1] * v
         return _rhumb_length(surf, a, b)
 
+    thick_frac = {f"{f:g}": camber_normal(f * chord_c) for f in fractions}
     thick_frac_cn = {f"{f:g}": chord_normal(f * chord_c) for f in fractions}
     thick_at, thick_at_cn = {}, {}
     for off, (x_le, x_te) in zip(offsets, _offset_stations(surf, le2, u, chord_c, offsets)):
