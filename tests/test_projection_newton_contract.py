@@ -1,0 +1,186 @@
+# SPDX-License-Identifier: LGPL-2.1-or-later
+"""Contract tests of :mod:`bladerecon.core.geometry.projection.newton`: the trust-region Newton
+iteration, checked on what it documents and against referees that share no code with it.
+
+Referees:
+
+* closed forms: the feet on a degree-2 plane, line, parabola and paraboloid (whose B-spline
+  poles are exact: the blossoms of x, x^2 at the knots, all small integers or halves), the
+  paraboloid's feet by the monotone Lagrange equation of the quadric (``scipy.optimize.brentq``),
+  the parabola's by the roots of its cubic (``numpy.roots``); the principal curvatures of the
+  paraboloid at its vertex (2a, 2b) for the focal ratio (1 - k1 d)(1 - k2 d);
+* the polynomial a spline interpolates, evaluated by hand with its derivatives, for the
+  cubic test surfaces (foot = S(u, v), tangential residuals at the returned parameters);
+* brute force: L-BFGS-B (``scipy.optimize.minimize``) on the polynomial itself.
+
+What the Newton iteration documents, and so what is checked:
+
+* steps are clipped to four knot spans at first, then to at most eight, the direction kept;
+  a rejected step quarters the trust region (``_TRUST_START``, ``_TRUST_MAX``);
+* every step is refined on the quadratic Taylor model (two Newton iterations on it, no new
+  evaluation): on a degree-2 surface that model is exact, so a start close enough converges
+  with ``max_iter = 0``;
+* a step small enough is taken by Taylor expansion with an error under 0.1 ``tol`` in the
+  foot (``_FINISH``); the point has converged when the tangential residual and the next step
+  are both <= ``tol``; the foot returned at ``max_iter`` unconverged is the best one found;
+* the exact Hessian is used where it is positive definite, else Gauss-Newton J^T J: Newton
+  converges quadratically on any parametrisation (parameter ranges of 1e-3 or 1e5 per
+  10 mm as well as of 1), and never to a saddle or maximum of the distance;
+* the focal ratio returned is det H / det J^T J = (1 - k1 d)(1 - k2 d) at the foot.
+
+Run time: every test well under a second; no test changes module state.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.optimize import brentq, minimize
+
+from bladerecon.core.geometry.projection import cache as proj_cache
+from bladerecon.core.geometry.projection import evaluation as proj_evaluation
+from bladerecon.core.geometry.projection import newton as proj_newton
+from bladerecon.core.geometry.projection import project_points_to_curve, project_points_to_surface
+from bladerecon.core.geometry.spline import BSplineCurve, BSplineSurface
+
+TOL = 1e-10          # mm: the projection's default tolerance
+
+
+@pytest.fixture(autouse=True)
+def fresh_cache():
+    """The spline cache empty before and after every test."""
+    proj_cache._cache.clear()
+    try:
+        yield
+    finally:
+        proj_cache._cache.clear()
+
+
+# --------------------------------------------------------------------------- exact degree-2 splines
+def _degree2_knots(lo: float, hi: float, step: float = 1.0):
+    """Clamped degree-2 knots lo, lo + step, ..., hi (binary fractions: exact) and their blossom
+    values: the Greville abscissae g_i = (t_i+1 + t_i+2) / 2 (poles of x) and t_i+1 t_i+2 (poles
+    of x^2)."""
+    knots = lo + step * np.arange(round((hi - lo) / step) + 1.0)
+    mults = np.r_[3, np.ones(knots.size - 2, int), 3]
+    t = np.repeat(knots, mults)
+    return knots, mults, 0.5 * (t[1:-2] + t[2:-1]), t[1:-2] * t[2:-1]
+
+
+SPAN_U, SPAN_V = 2.0, 0.5      # knot span lengths of the plane (different: a radius not in spans shows)
+
+
+def plane2(n: int = 40) -> BSplineSurface:
+    """S(u, v) = (3 u / SPAN_U, 4 v / SPAN_V, 0) on [0, n SPAN_U] x [0, n SPAN_V]: biquadratic,
+    n x n knot spans of 3 x 4 mm."""
+    ku, mu, gu, _ = _degree2_knots(0, n * SPAN_U, SPAN_U)
+    kv, mv, gv, _ = _degree2_knots(0, n * SPAN_V, SPAN_V)
+    U, V = np.meshgrid(gu, gv, indexing="ij")
+    return BSplineSurface(np.stack([3 * U / SPAN_U, 4 * V / SPAN_V, 0 * U], axis=-1), ku, mu, kv, mv, 2, 2)
+
+
+def line2(n: int = 40) -> BSplineCurve:
+    """C(t) = (3, -4) t / SPAN_U on [0, n SPAN_U]: quadratic, n knot spans of 5 mm."""
+    k, m, g, _ = _degree2_knots(0, n * SPAN_U, SPAN_U)
+    return BSplineCurve(np.column_stack([3 * g, -4 * g]) / SPAN_U, k, m, 2, False)
+
+
+C_PAR = 0.1
+
+
+def parabola2() -> BSplineCurve:
+    """y = c x^2, x = t on [-16, 16], quadratic with spans of 2."""
+    k, m, g, g2 = _degree2_knots(-16, 16, 2)
+    return BSplineCurve(np.column_stack([g, C_PAR * g2]), k, m, 2, False)
+
+
+def parabola_feet(P: np.ndarray):
+    """Closest points of y = c x^2 (unbounded): x solves 2c^2 x^3 + (1 - 2c y0) x - x0 = 0."""
+    out = np.empty(len(P))
+    for i, (x0, y0) in enumerate(P):
+        r = np.roots([2 * C_PAR ** 2, 0.0, 1 - 2 * C_PAR * y0, -x0])
+        r = r[np.abs(r.imag) < 1e-9].real
+        out[i] = r[np.argmin((r - x0) ** 2 + (C_PAR * r * r - y0) ** 2)]
+    return out
+
+
+A_PAR, B_PAR = 0.1, 0.05
+
+
+def paraboloid2(M=((1.0, 0.0), (0.0, 1.0)), lo: int = -16, hi: int = 16, step: int = 2) -> BSplineSurface:
+    """z = a X^2 + b Y^2 with (X, Y) = M (u, v), biquadratic on [lo, hi]^2 (spans ``step``).
+    Exact poles: X, Y, X^2, XY, Y^2 are replaced by their blossoms at the knots."""
+    k, m, g, g2 = _degree2_knots(lo, hi, step)
+    (p, q), (r, s) = M
+    U, V = np.meshgrid(g, g, indexing="ij")
+    UU, VV = np.meshgrid(g2, g2, indexing="ij")
+    X, Y = p * U + q * V, r * U + s * V
+    XX = p * p * UU + 2 * p * q * U * V + q * q * VV
+    YY = r * r * UU + 2 * r * s * U * V + s * s * VV
+    return BSplineSurface(np.stack([X, Y, A_PAR * XX + B_PAR * YY], axis=-1), k, m, k, m, 2, 2)
+
+
+def paraboloid_feet(P: np.ndarray) -> np.ndarray:
+    """Closest points (X, Y) of z = a X^2 + b Y^2 (unbounded, a, b > 0): X = x0 / (1 + 2a mu),
+    Y = y0 / (1 + 2b mu) with mu = z - z0 the one root of the decreasing function below on
+    mu > -1 / (2 max(a, b)) (the Lagrange condition of the global minimum)."""
+    out = np.empty((len(P), 2))
+    lo = -1.0 / (2 * max(A_PAR, B_PAR))
+    for i, (x0, y0, z0) in enumerate(P):
+        phi = lambda mu: (A_PAR * x0 ** 2 / (1 + 2 * A_PAR * mu) ** 2 + B_PAR * y0 ** 2 / (1 + 2 * B_PAR * mu) ** 2
+                          - z0 - mu)
+        mu = brentq(phi, lo + 1e-12, 1e6, xtol=1e-15, rtol=1e-15)
+        out[i] = x0 / (1 + 2 * A_PAR * mu), y0 / (1 + 2 * B_PAR * mu)
+    return out
+
+
+def on_paraboloid(X, Y):
+    return np.column_stack([X, Y, A_PAR * X ** 2 + B_PAR * Y ** 2])
+
+
+def paraboloid_normal(X, Y):
+    n = np.column_stack([-2 * A_PAR * X, -2 * B_PAR * Y, np.ones_like(X)])
+    return n / np.linalg.norm(n, axis=1, keepdims=True)
+
+
+# --------------------------------------------------------------------------- trust region
+def test_surface_steps_are_clipped_to_four_then_eight_spans_direction_kept():
+    """On a biquadratic plane (unit knot spans) from starts 12.5 and 20.5 spans from the foot
+    (along u, along v, and along (1, 0.4)), the iterate after ``max_iter`` = 0, 1, 2 has moved
+    4, 12, 20 spans (the trust region: four spans at first, then eight) along the Newton step's
+    own direction, and the foot is reached afterwards. A degree-2 patch has no third derivative,
+    so every step is "small" and at ``max_iter`` the (exact) Taylor step is returned when it is
+    closer. Exact to rounding (1e-9 spans). Catches other trust radii, a radius not in knot
+    spans (divided by the span length), a step divided instead of multiplied by its clip
+    factor, and u and v clipped each on its own."""
+    s = plane2()
+    uf, vf = np.array([28.3, 28.3, 20.3, 18.7]), np.array([20.6, 19.1, 30.7, 19.2])     # in knot spans
+    P = np.column_stack([3 * uf, 4 * vf, np.full(4, 2.0)])
+    for off in (12.5, 20.5):
+        du, dv = np.array([off, off, 0.0, -off]), np.array([0.0, 0.4 * off, off, -0.4 * off])
+        u0, v0 = uf - du, vf - dv
+        for max_iter, reach in ((0, 4.0), (1, 12.0), (2, 20.0)):
+            r = project_points_to_surface(s, P, u0 * SPAN_U, v0 * SPAN_V, max_iter=max_iter)
+            frac = min(reach / off, 1.0)
+            assert np.abs(r.u / SPAN_U - (u0 + frac * du)).max() < 1e-9, (off, max_iter)
+            assert np.abs(r.v / SPAN_V - (v0 + frac * dv)).max() < 1e-9, (off, max_iter)
+            assert not r.converged[np.full(4, reach < off)].any()
+        r = project_points_to_surface(s, P, u0 * SPAN_U, v0 * SPAN_V, max_iter=4)
+        assert r.converged.all() and np.abs(r.u / SPAN_U - uf).max() < 1e-9 and np.abs(r.distance - 2.0).max() < 1e-9
+
+
+def test_curve_steps_are_clipped_to_four_then_eight_spans():
+    """The curve form: a quadratic straight line (unit spans, 5 mm each), starts 12.5 and
+    20.5 spans from the foot on either side: after ``max_iter`` = 0, 1, 2 the iterate has
+    moved 4, 12, 20 spans towards the foot. Catches the same faults in the curve's clip."""
+    c = line2()
+    tf = np.array([28.3, 11.7])                                   # in knot spans
+    P = np.column_stack([3 * tf, -4 * tf]) + [4.0, 3.0]          # 5 mm off the line
+    for off in (12.5, 20.5):
+        dt = np.array([off, -off])
+        t0 = tf - dt
+        for max_iter, reach in ((0, 4.0), (1, 12.0), (2, 20.0)):
+            r = project_points_to_curve(c, P, t0 * SPAN_U, max_iter=max_iter)
+            assert np.abs(r.t / SPAN_U - (t0 + min(reach / off, 1.0) * dt)).max() < 1e-9, (off, max_iter)
+        r = project_points_to_curve(c, P, t0 * SPAN_U, max_iter=4)
+        assert r.converged.all() and np.abs(r.t / SPAN_U - tf).max() < 1e-9 and np.abs(r.distance - 5.0).max() < 1e-9
+
