@@ -184,3 +184,30 @@ def test_curve_steps_are_clipped_to_four_then_eight_spans():
         r = project_points_to_curve(c, P, t0 * SPAN_U, max_iter=4)
         assert r.converged.all() and np.abs(r.t / SPAN_U - tf).max() < 1e-9 and np.abs(r.distance - 5.0).max() < 1e-9
 
+
+# points just off the centre of curvature of the vertex (x = 0, y = 1 / (2c) = 5): from the
+# vertex the Newton step is far too long (the distance is nearly stationary there); clipped to
+# four spans (8 mm) it lands farther from P than the start and is rejected
+NEAR_FOCUS = np.array([[0.999, 5.1746], [-0.4604, 5.0493], [2.07, 5.42]])
+
+
+def test_unconverged_foot_at_max_iter_is_the_best_found():
+    """With ``max_iter`` too small to converge, the foot returned is the best one found: no
+    farther from P than the start, on the curve (y = c x^2 at the returned t) and at the
+    distance reported. From the vertex, for points near its centre of curvature, the first
+    step (four spans) lands farther than the start: it used to be returned for
+    ``max_iter = 0`` (7.1 mm from P instead of the start's 5.3 mm). The same on the paraboloid.
+    Tolerances: rounding of ~10 mm coordinates (1e-12)."""
+    c = parabola2()
+    start = np.hypot(NEAR_FOCUS[:, 0], NEAR_FOCUS[:, 1])
+    for max_iter in range(4):
+        r = project_points_to_curve(c, NEAR_FOCUS, np.zeros(3), max_iter=max_iter)
+        assert np.all(r.distance <= start + 1e-12), max_iter
+        assert np.abs(r.foot - np.column_stack([r.t, C_PAR * r.t ** 2])).max() < 1e-12
+        assert np.abs(np.linalg.norm(NEAR_FOCUS - r.foot, axis=1) - r.distance).max() < 1e-12
+    s = paraboloid2()
+    Q = np.column_stack([NEAR_FOCUS[:, 0], [0.3, 0.2, -0.1], NEAR_FOCUS[:, 1]])
+    for max_iter in range(4):
+        r = project_points_to_surface(s, Q, np.zeros(3), np.zeros(3), max_iter=max_iter)
+        assert np.all(r.distance <= np.linalg.norm(Q, axis=1) + 1e-12), max_iter
+        assert np.abs(r.foot - on_paraboloid(r.u, r.v)).max() < 1e-12
