@@ -211,3 +211,71 @@ def test_unconverged_foot_at_max_iter_is_the_best_found():
         r = project_points_to_surface(s, Q, np.zeros(3), np.zeros(3), max_iter=max_iter)
         assert np.all(r.distance <= np.linalg.norm(Q, axis=1) + 1e-12), max_iter
         assert np.abs(r.foot - on_paraboloid(r.u, r.v)).max() < 1e-12
+
+
+def test_a_rejected_step_quarters_the_trust_region():
+    """From the vertex, for points near its centre of curvature, the first step (clipped to
+    four spans) lands farther from P and is rejected; the next one is clipped to a quarter of
+    that, one span (2 mm), and accepted: after ``max_iter = 1`` the iterate has moved exactly
+    one span (on a degree-2 curve the Taylor step is exact, and closer than the start). Run to
+    the end, Newton reaches the closed-form foot (roots of the cubic) to 1e-9 mm (10 tol).
+    The same on the paraboloid along u. Catches a rejected step that does not shrink the
+    trust region (Newton would retry the same step until max_iter) or shrinks it otherwise."""
+    c = parabola2()
+    sign = np.sign(NEAR_FOCUS[:, 0])
+    r = project_points_to_curve(c, NEAR_FOCUS, np.zeros(3), max_iter=1)
+    assert np.abs(r.t - 2.0 * sign).max() < 1e-12 and not r.converged.any()
+    r = project_points_to_curve(c, NEAR_FOCUS, np.zeros(3))
+    assert r.converged.all() and np.abs(r.t - parabola_feet(NEAR_FOCUS)).max() < 1e-9
+    s = paraboloid2()
+    Q = np.column_stack([NEAR_FOCUS[:, 0], [0.003, 0.002, -0.001], NEAR_FOCUS[:, 1]])
+    r = project_points_to_surface(s, Q, np.zeros(3), np.zeros(3), max_iter=1)
+    assert np.abs(r.u - 2.0 * sign).max() < 1e-9 and not r.converged.any()
+    r = project_points_to_surface(s, Q, np.zeros(3), np.zeros(3))
+    want = paraboloid_feet(Q)
+    assert r.converged.all() and np.abs(r.u - want[:, 0]).max() < 1e-9 and np.abs(r.v - want[:, 1]).max() < 1e-9
+
+
+def _paraboloid_points(m: int, rng, d_max: float = 3.0):
+    """Points at distance up to ``d_max`` on either side of the paraboloid over feet (X, Y) in
+    [-10, 10]^2 (their feet are the closed form's: the focal ratio stays >= 0.4 > 0)."""
+    X, Y = rng.uniform(-10, 10, m), rng.uniform(-10, 10, m)
+    return on_paraboloid(X, Y) + paraboloid_normal(X, Y) * rng.uniform(-d_max, d_max, m)[:, None]
+
+
+def test_max_iter_zero_converges_from_close_starts_on_degree_two_splines():
+    """On a degree-2 surface or curve the quadratic Taylor model is exact, so the refined step
+    (two Newton iterations on the model, no evaluation) from a start e parameter units off the
+    foot is within K^3 e^4 of it, K = max |f3| / (2 min f2) <= 1.5 (f = |S - P|^2 / 2 along x,
+    f2 and f3 its 2nd and 3rd derivatives: f3 = 3 S_x.S_xx <= 12 a^2 |x| <= 1.2 and
+    f2 >= (1 - k d) |S_x|^2 >= 0.4 for |x| <= 10, d <= 3 mm). From e = 1e-3 that is 3e-12:
+    with ``max_iter = 0`` every point has converged to the closed-form foot (1e-9, 10 tol).
+    From e = 0.3 it is 0.03: not converged, but the foot returned is that refined step (closer
+    than the start), not the start. Catches a refinement that goes the wrong way or starts
+    from the wrong point, and converged feet replaced by the start."""
+    rng = np.random.default_rng(21)
+    s = paraboloid2()
+    P = _paraboloid_points(40, rng)
+    want = paraboloid_feet(P)
+    for e0, close in ((1e-3, True), (0.3, False)):
+        ang = rng.uniform(0, 2 * np.pi, 40)
+        u0, v0 = want[:, 0] + e0 * np.cos(ang), want[:, 1] + e0 * np.sin(ang)
+        r = project_points_to_surface(s, P, u0, v0, max_iter=0)
+        err = np.hypot(r.u - want[:, 0], r.v - want[:, 1])
+        if close:
+            assert r.converged.all() and err.max() < 1e-9
+            assert np.abs(r.foot - on_paraboloid(*want.T)).max() < 1e-9
+        else:
+            assert not r.converged.any() and err.max() < 0.03
+            start = np.linalg.norm(P - on_paraboloid(u0, v0), axis=1)
+            assert np.all(r.distance < start)
+    c = parabola2()
+    x = rng.uniform(-10, 10, 40)
+    n = np.column_stack([-2 * C_PAR * x, np.ones(40)]) / np.hypot(2 * C_PAR * x, 1)[:, None]
+    Q = np.column_stack([x, C_PAR * x * x]) + n * rng.uniform(-3, 3, 40)[:, None]
+    tf = parabola_feet(Q)
+    r = project_points_to_curve(c, Q, tf + rng.choice([-1e-3, 1e-3], 40), max_iter=0)
+    assert r.converged.all() and np.abs(r.t - tf).max() < 1e-9
+    r = project_points_to_curve(c, Q, tf + rng.choice([-0.3, 0.3], 40), max_iter=0)
+    assert not r.converged.any() and np.abs(r.t - tf).max() < 0.03
+
