@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from scipy.interpolate import BSpline
 from scipy.optimize import brentq, minimize
 
 from bladerecon.core.geometry.projection import cache as proj_cache
@@ -133,7 +134,19 @@ def paraboloid_feet(P: np.ndarray) -> np.ndarray:
     return out
 
 
+def paraboloid_focal(X, Y, P):
+    """(1 - k1 d)(1 - k2 d) at the foot (X, Y) of P: det(G - d II) / det G with the first and
+    second fundamental forms of z = a X^2 + b Y^2 in (X, Y) and d = (P - S).n (the ratio does
+    not depend on the parametrisation)."""
+    n = paraboloid_normal(X, Y)
+    d = np.einsum("ij,ij->i", P - on_paraboloid(X, Y), n)
+    E, F, G = 1 + 4 * A_PAR ** 2 * X ** 2, 4 * A_PAR * B_PAR * X * Y, 1 + 4 * B_PAR ** 2 * Y ** 2
+    L, N = 2 * A_PAR * n[:, 2], 2 * B_PAR * n[:, 2]
+    return ((E - d * L) * (G - d * N) - F * F) / (E * G - F * F)
+
+
 def on_paraboloid(X, Y):
+
     return np.column_stack([X, Y, A_PAR * X ** 2 + B_PAR * Y ** 2])
 
 
@@ -279,3 +292,61 @@ def test_max_iter_zero_converges_from_close_starts_on_degree_two_splines():
     r = project_points_to_curve(c, Q, tf + rng.choice([-0.3, 0.3], 40), max_iter=0)
     assert not r.converged.any() and np.abs(r.t - tf).max() < 0.03
 
+
+
+# --------------------------------------------------------------------------- Hessian, focal ratio
+ROT45 = ((SQ := np.sqrt(0.5), -SQ), (SQ, SQ))       # (X, Y) = the parameters turned by 45 degrees
+
+
+def test_newton_never_stops_at_a_saddle_of_the_distance():
+    """P = (0, 0, 6) on the axis of the paraboloid, between the centres of curvature of the
+    vertex along X (5 mm) and Y (10 mm): the vertex is a saddle of the distance (a maximum
+    along X), the feet are at X = +-sqrt((2ah - 1) / (2a^2)), d = sqrt(h/a - 1/(4a^2)) = 5.92
+    (closed form). With the parameters turned by 45 degrees the Hessian at starts next to the
+    vertex has both diagonal terms positive but a negative determinant: Newton must take the
+    Gauss-Newton step there, which leaves the saddle, and reach a foot; the Newton step on the
+    indefinite Hessian goes to the saddle (distance 6, a root of eq. 10 too). 1e-9 mm (10 tol).
+    Catches a positive-definiteness test that looks at the diagonal only or misreads the
+    determinant."""
+    s = paraboloid2(ROT45)
+    h = 6.0
+    P = np.tile([0.0, 0.0, h], (4, 1))
+    X0, Y0 = np.array([0.5, -0.4, 0.3, -0.6]), np.array([0.05, -0.1, 0.0, 0.02])
+    u0, v0 = SQ * (X0 + Y0), SQ * (Y0 - X0)                     # (X, Y) = ROT45 (u, v)
+    r = project_points_to_surface(s, P, u0, v0)
+    assert r.converged.all()
+    assert np.abs(r.distance - np.sqrt(h / A_PAR - 1 / (4 * A_PAR ** 2))).max() < 1e-9
+    X = SQ * (r.u - r.v)
+    assert np.abs(np.abs(X) - np.sqrt((2 * A_PAR * h - 1) / (2 * A_PAR ** 2))).max() < 1e-9
+
+
+def test_focal_ratio_is_the_product_of_one_minus_curvature_times_distance():
+    """The focal ratio returned with each foot is det H / det J^T J = (1 - k1 d)(1 - k2 d)
+    (documented; the global search reads it to tell a point near a centre of curvature): on the
+    paraboloid in twisted parameters (S_u.S_v != 0, S_uv.n != 0), at converged feet on both
+    sides, it is the closed form det(G - d II) / det G to 1e-9 (the foot within tol = 1e-10 of
+    the true one moves the ratio by ~1e-10 x |d(ratio)/dX| < 1e-9). On the parabola (curve) it
+    is 1 - k d. Catches a wrong determinant of the Hessian or of the metric and a ratio
+    multiplied instead of divided."""
+    rng = np.random.default_rng(22)
+    s = paraboloid2(((0.8, 0.5), (-0.3, 0.9)))
+    model = proj_evaluation._SurfaceModel(s)
+    P = _paraboloid_points(30, rng)
+    want = paraboloid_feet(P)
+    uv = np.linalg.solve([[0.8, 0.5], [-0.3, 0.9]], want.T + rng.normal(0, 0.05, (2, 30)))
+    Pt = np.ascontiguousarray(P.T)
+    u, v, D, conv, focal = proj_newton._newton_surface(model, Pt, model.evaluate(uv[0], uv[1], 2), TOL, 30, 1e-12)
+    assert conv.all()
+    assert np.abs(focal - paraboloid_focal(want[:, 0], want[:, 1], P)).max() < 1e-9
+    assert focal.min() < 0.6 and focal.max() > 1.5                  # both sides
+    c = parabola2()
+    cmodel = proj_evaluation._CurveModel(c)
+    x = rng.uniform(-10, 10, 30)
+    nrm = np.column_stack([-2 * C_PAR * x, np.ones(30)]) / np.hypot(2 * C_PAR * x, 1)[:, None]
+    d = rng.uniform(-3, 3, 30)
+    Q = np.column_stack([x, C_PAR * x * x]) + nrm * d[:, None]
+    t, Dc, conv, focal = proj_newton._newton_curve(cmodel, np.ascontiguousarray(Q.T), cmodel.evaluate(x + 0.05, 2),
+                                                   TOL, 30, 1e-12)
+    assert conv.all()
+    k = 2 * C_PAR / (1 + 4 * C_PAR ** 2 * x ** 2) ** 1.5          # curvature, centre on the +n side
+    assert np.abs(focal - (1 - k * d)).max() < 1e-9
