@@ -34,7 +34,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from scipy.interpolate import BSpline
 from scipy.optimize import brentq, minimize
 
 from bladerecon.core.geometry.projection import cache as proj_cache
@@ -146,6 +145,7 @@ def paraboloid_focal(X, Y, P):
 
 
 def on_paraboloid(X, Y):
+
 
     return np.column_stack([X, Y, A_PAR * X ** 2 + B_PAR * Y ** 2])
 
@@ -298,7 +298,8 @@ def test_max_iter_zero_converges_from_close_starts_on_degree_two_splines():
 ROT45 = ((SQ := np.sqrt(0.5), -SQ), (SQ, SQ))       # (X, Y) = the parameters turned by 45 degrees
 
 
-def test_newton_never_stops_at_a_saddle_of_the_distance():
+@pytest.mark.parametrize("su, sv", [(1.0, 1.0), (1e6, 1e6), (1e-3, 1e4), (1e4, 1e-3)])
+def test_newton_never_stops_at_a_saddle_of_the_distance(su, sv):
     """P = (0, 0, 6) on the axis of the paraboloid, between the centres of curvature of the
     vertex along X (5 mm) and Y (10 mm): the vertex is a saddle of the distance (a maximum
     along X), the feet are at X = +-sqrt((2ah - 1) / (2a^2)), d = sqrt(h/a - 1/(4a^2)) = 5.92
@@ -306,17 +307,22 @@ def test_newton_never_stops_at_a_saddle_of_the_distance():
     vertex has both diagonal terms positive but a negative determinant: Newton must take the
     Gauss-Newton step there, which leaves the saddle, and reach a foot; the Newton step on the
     indefinite Hessian goes to the saddle (distance 6, a root of eq. 10 too). 1e-9 mm (10 tol).
-    Catches a positive-definiteness test that looks at the diagonal only or misreads the
-    determinant."""
-    s = paraboloid2(ROT45)
+    The same surface with its knots (parameters) scaled by (su, sv): the feet must not depend
+    on the parametrisation. With speeds |S_u| / |S_v| ~ 1e7 apart, a Gauss-Newton term shared
+    by both directions (1e-12 (S_u.S_u + S_v.S_v)) swamped S_v.S_v and Newton stalled 0.08 mm
+    off the foot. Catches a positive-definiteness test that looks at the diagonal only or
+    misreads the determinant, and thresholds or regularisers not scaled with the metric."""
+    s0 = paraboloid2(ROT45)
+    s = BSplineSurface(s0.poles, s0.u_knots * su, s0.u_mults, s0.v_knots * sv, s0.v_mults, 2, 2)
     h = 6.0
     P = np.tile([0.0, 0.0, h], (4, 1))
     X0, Y0 = np.array([0.5, -0.4, 0.3, -0.6]), np.array([0.05, -0.1, 0.0, 0.02])
     u0, v0 = SQ * (X0 + Y0), SQ * (Y0 - X0)                     # (X, Y) = ROT45 (u, v)
-    r = project_points_to_surface(s, P, u0, v0)
+    r = project_points_to_surface(s, P, u0 * su, v0 * sv)
     assert r.converged.all()
     assert np.abs(r.distance - np.sqrt(h / A_PAR - 1 / (4 * A_PAR ** 2))).max() < 1e-9
-    X = SQ * (r.u - r.v)
+    X = SQ * (r.u / su - r.v / sv)
+
     assert np.abs(np.abs(X) - np.sqrt((2 * A_PAR * h - 1) / (2 * A_PAR ** 2))).max() < 1e-9
 
 

@@ -51,17 +51,20 @@ def _surface_step(model: _SurfaceModel, u, v, pieces, r, Su, Sv, Suu, Suv, Svv):
     det = huu * hvv - huv * huv
     gram = guu * gvv - guv * guv
     exact = (huu > 0) & (hvv > 0) & (det > 1e-12 * huu * hvv)
-    lam = 1e-12 * (guu + gvv) + 1e-300
-    muu = np.where(exact, huu, guu + lam)
-    mvv = np.where(exact, hvv, gvv + lam)
+    # J^T J with each diagonal term raised by 1e-12 of itself: positive definite, and the same
+    # on any scaling of u and v (one shared term would swamp the smaller one)
+    lam_u, lam_v = 1e-12 * guu + 1e-300, 1e-12 * gvv + 1e-300
+    muu = np.where(exact, huu, guu + lam_u)
+    mvv = np.where(exact, hvv, gvv + lam_v)
     muv = np.where(exact, huv, guv)
     detm = muu * mvv - muv * muv
     fix_u, fix_v = model.u.held(u, gu, pieces[0]), model.v.held(v, gv, pieces[1])
     fix_u |= guu <= 1e-20 * gvv            # a collapsed edge: moving u does not move the foot
     fix_v |= gvv <= 1e-20 * guu
     # with one parameter held, Newton along the other uses its own second derivative
-    du = np.where(fix_v, -gu / np.where(huu > 0, huu, guu + lam), -(mvv * gu - muv * gv) / detm)
-    dv = np.where(fix_u, -gv / np.where(hvv > 0, hvv, gvv + lam), -(muu * gv - muv * gu) / detm)
+    du = np.where(fix_v, -gu / np.where(huu > 0, huu, guu + lam_u), -(mvv * gu - muv * gv) / detm)
+    dv = np.where(fix_u, -gv / np.where(hvv > 0, hvv, gvv + lam_v), -(muu * gv - muv * gu) / detm)
+
     du[fix_u] = 0.0
     dv[fix_v] = 0.0
     res_u = np.where(fix_u, 0.0, np.abs(gu) / np.sqrt(np.maximum(guu, 1e-300)))
