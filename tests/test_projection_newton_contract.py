@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from scipy.interpolate import BSpline
 from scipy.optimize import brentq, minimize
 
 from bladerecon.core.geometry.projection import cache as proj_cache
@@ -142,6 +143,78 @@ def paraboloid_focal(X, Y, P):
     E, F, G = 1 + 4 * A_PAR ** 2 * X ** 2, 4 * A_PAR * B_PAR * X * Y, 1 + 4 * B_PAR ** 2 * Y ** 2
     L, N = 2 * A_PAR * n[:, 2], 2 * B_PAR * n[:, 2]
     return ((E - d * L) * (G - d * N) - F * F) / (E * G - F * F)
+
+
+def _greville(t, k):
+    return np.array([t[i + 1: i + k + 1].mean() for i in range(len(t) - k - 1)])
+
+
+def _interpolated(f, knots, degree=3):
+    """Clamped bicubic surface on knots x knots whose poles interpolate f(u, v) -> (..., 3) at
+    the Greville points (scipy's collocation matrix): exactly f for a bicubic polynomial f."""
+    mults = np.r_[degree + 1, np.ones(knots.size - 2, int), degree + 1]
+    t = np.repeat(knots, mults)
+    g = _greville(t, degree)
+    F = f(g[:, None] + 0 * g[None, :], g[None, :] + 0 * g[:, None])
+    B = BSpline(t, np.eye(g.size), degree)(g)
+    C = np.linalg.solve(B, F.reshape(g.size, -1)).reshape(g.size, g.size, 3)
+    C = np.linalg.solve(B, C.transpose(1, 0, 2).reshape(g.size, -1)).reshape(g.size, g.size, 3).transpose(1, 0, 2)
+    return BSplineSurface(np.ascontiguousarray(C), knots, mults, knots, mults, degree, degree)
+
+
+def cubic_z(X, Y, order=0):
+    """z = 0.05 X^2 + 0.03 Y^2 + 0.001 X^3 + 0.0005 X Y^2 and its derivatives: (z,) with
+    order 0, (z_X, z_Y) with 1, (z_XX, z_XY, z_YY) with 2. Convex on [-10, 10]^2
+    (z_XX in [0.04, 0.16], z_YY in [0.055, 0.065]), third derivatives 0.006 and 0.001."""
+    if order == 0:
+        return 0.05 * X ** 2 + 0.03 * Y ** 2 + 0.001 * X ** 3 + 0.0005 * X * Y ** 2
+    if order == 1:
+        return 0.1 * X + 0.003 * X ** 2 + 0.0005 * Y ** 2, 0.06 * Y + 0.001 * X * Y
+    return 0.1 + 0.006 * X, 0.001 * Y, 0.06 + 0.001 * X
+
+
+class CubicPatch:
+    """S(u, v) = (X, Y, cubic_z(X, Y)) with (X, Y) = M (u / su, v / sv) + c: a bicubic spline
+    on [0, 20 su] x [0, 20 sv] (4 x 4 spans), exact (interpolated at the Greville points).
+    ``su``, ``sv`` scale the parameters (knots times su, sv: the same surface)."""
+
+    def __init__(self, M=((1.0, 0.0), (0.0, 1.0)), c=(-10.0, -10.0), su=1.0, sv=1.0):
+        self.M, self.c, self.su, self.sv = np.asarray(M, float), np.asarray(c, float), su, sv
+        knots = np.array([0.0, 5.0, 10.0, 15.0, 20.0])
+
+        def f(u, v):
+            X, Y = self.xy(u, v)
+            return np.stack([X, Y, cubic_z(X, Y)], axis=-1)
+        base = _interpolated(f, knots)
+        self.surface = BSplineSurface(base.poles, knots * su, base.u_mults, knots * sv, base.v_mults, 3, 3)
+
+    def xy(self, u, v):
+        """(X, Y) at the unscaled parameters (u, v) in [0, 20]^2."""
+        return self.M[0, 0] * u + self.M[0, 1] * v + self.c[0], self.M[1, 0] * u + self.M[1, 1] * v + self.c[1]
+
+    def params(self, X, Y):
+        """The scaled parameters of (X, Y)."""
+        u, v = np.linalg.solve(self.M, np.stack([X - self.c[0], Y - self.c[1]]))
+        return u * self.su, v * self.sv
+
+    def point(self, X, Y):
+        return np.column_stack([X, Y, cubic_z(X, Y)])
+
+    def tangents(self, X, Y):
+        """dS/dX, dS/dY and the unit normal (closed form)."""
+        zx, zy = cubic_z(X, Y, 1)
+        SX = np.column_stack([np.ones_like(X), np.zeros_like(X), zx])
+        SY = np.column_stack([np.zeros_like(X), np.ones_like(X), zy])
+        n = np.cross(SX, SY)
+        return SX, SY, n / np.linalg.norm(n, axis=1, keepdims=True)
+
+    def at_params(self, u, v):
+        """S, S_u, S_v at the scaled parameters (closed form)."""
+        X, Y = self.xy(u / self.su, v / self.sv)
+        SX, SY, _ = self.tangents(X, Y)
+        Su = (self.M[0, 0] * SX + self.M[1, 0] * SY) / self.su
+        Sv = (self.M[0, 1] * SX + self.M[1, 1] * SY) / self.sv
+        return self.point(X, Y), Su, Sv
 
 
 def on_paraboloid(X, Y):
@@ -356,3 +429,121 @@ def test_focal_ratio_is_the_product_of_one_minus_curvature_times_distance():
     assert conv.all()
     k = 2 * C_PAR / (1 + 4 * C_PAR ** 2 * x ** 2) ** 1.5          # curvature, centre on the +n side
     assert np.abs(focal - (1 - k * d)).max() < 1e-9
+
+
+# --------------------------------------------------------------------------- any parametrisation
+def _cubic_points(cp: CubicPatch, rng, m: int = 16):
+    """Points with known feet on the cubic patch: interior feet (X0, Y0) at distance d on
+    either side (P = S + d n: a local minimum, the focal ratio >= (1 - 0.16 x 3)^2 > 0), and
+    feet on the edges X = 10 (u held) and Y = 10 (v held): P = S + d n + e t with t the unit
+    tangent across the edge, outwards (P - S is orthogonal to the edge, the gradient pushes
+    out). Returns P, the feet (X, Y) and which are on an edge."""
+    X, Y = rng.uniform(-8, 8, 3 * m), rng.uniform(-8, 8, 3 * m)
+    X[m:2 * m], Y[2 * m:] = 10.0, 10.0
+    SX, SY, n = cp.tangents(X, Y)
+    across = np.where(np.arange(3 * m)[:, None] < 2 * m, SX - np.einsum("ij,ij->i", SX, SY)[:, None] * SY
+                      / np.einsum("ij,ij->i", SY, SY)[:, None], SY - np.einsum("ij,ij->i", SY, SX)[:, None] * SX
+                      / np.einsum("ij,ij->i", SX, SX)[:, None])
+    across /= np.linalg.norm(across, axis=1, keepdims=True)
+    e = np.where(np.arange(3 * m) < m, 0.0, rng.uniform(0.5, 3.0, 3 * m))
+    P = cp.point(X, Y) + n * rng.uniform(-3, 3, 3 * m)[:, None] + across * e[:, None]
+    return P, X, Y, np.arange(3 * m) >= m
+
+
+def _check_feet(cp: CubicPatch, r, P, X, Y, edge, tol=TOL):
+    """Converged; the feet (X, Y) as constructed and the foot, distance as S at the returned
+    (u, v) by the closed form, to 10 tol; the foot returned is S(u, v) to 0.1 tol (the
+    Taylor finish's bound) plus rounding (1e-12 for 10 mm coordinates); the tangential
+    residuals at the interior feet <= tol (+ rounding)."""
+    assert r.converged.all()
+    Xr, Yr = cp.xy(r.u / cp.su, r.v / cp.sv)
+    assert np.abs(Xr - X).max() < 10 * tol and np.abs(Yr - Y).max() < 10 * tol
+    S, Su, Sv = cp.at_params(r.u, r.v)
+    assert np.abs(r.foot - S).max() <= 0.1 * tol + 1e-12
+    assert np.abs(np.linalg.norm(P - S, axis=1) - r.distance).max() <= 0.1 * tol + 1e-12
+    off = S - P
+    inner = ~edge
+    for T in (Su, Sv):
+        res = np.abs(np.einsum("ij,ij->i", T, off)) / np.linalg.norm(T, axis=1)
+        assert res[inner].max() <= tol + 1e-12
+
+
+@pytest.mark.parametrize("su, sv", [(1.0, 1.0), (1e-3, 1e-3), (1e6, 1e6), (1e-2, 1e3), (1e3, 1e-2)])
+def test_newton_converges_quadratically_on_any_parametrisation(su, sv):
+    """The same cubic patch with its parameters scaled by (su, sv) (parameter speeds from 1e-6
+    to 1e4 mm per unit, and 1e5 apart): from starts 0.4 mm off the feet Newton with the exact
+    Hessian converges quadratically (0.4 -> ~2e-2 -> ~6e-5 -> ~5e-10 mm for K ~ 0.15/mm; the
+    last step by Taylor expansion): two evaluations, and up to two more where the speeds
+    differ (the Taylor finish's bound, third derivatives over the smallest speed cubed, is
+    cautious there and the last steps are evaluated instead), so ``max_iter = 4`` suffices
+    everywhere, also along the edges where one parameter is held. Gauss-Newton converges only
+    linearly (rate |k d| up to 0.5 here: 0.4 x 0.5^4 = 0.025 mm off after four): a Hessian
+    test, a collapse test or a regulariser that is not scale-free fails, and so does a Taylor
+    finish bound that is not (its error shows in the foot). Each foot is checked by
+    :func:`_check_feet`."""
+    cp = CubicPatch(su=su, sv=sv)
+    rng = np.random.default_rng(23)
+    P, X, Y, edge = _cubic_points(cp, rng)
+    ang = rng.uniform(0, 2 * np.pi, X.size)
+    dX, dY = 0.4 * np.cos(ang), 0.4 * np.sin(ang)
+    dX, dY = np.where(X >= 10, -np.abs(dX), dX), np.where(Y >= 10, -np.abs(dY), dY)     # starts inside
+    u0, v0 = cp.params(X + dX, Y + dY)
+
+    r = project_points_to_surface(cp.surface, P, u0, v0, max_iter=4)
+
+    _check_feet(cp, r, P, X, Y, edge)
+
+
+# --------------------------------------------------------------------------- the Taylor finish
+E_CUB = 0.05
+
+
+def cubic_curve() -> BSplineCurve:
+    """C(t) = (t, e t^3) on [-10, 10]: one cubic Bezier span, exact (interpolated at the
+    Greville points); C''' = (0, 6e) everywhere, so the span's bound of the third derivative
+    is exactly |C'''| = 0.3 and a quadratic Taylor step of a misses C by exactly e a^3."""
+    knots, mults = np.array([-10.0, 10.0]), np.array([4, 4])
+    t = np.repeat(knots, mults)
+    g = _greville(t, 3)
+    poles = np.linalg.solve(BSpline(t, np.eye(4), 3)(g), np.column_stack([g, E_CUB * g ** 3]))
+    return BSplineCurve(poles, knots, mults, 3, False)
+
+
+def test_taylor_finish_error_stays_under_a_tenth_of_tol():
+    """A step is taken by Taylor expansion only while its error stays below 0.1 tol: with
+    k3 = |C'''| / |C'|^3 the foot error of a step s (mm) is k3 s^3 / 6 exactly on this cubic,
+    and the residual's about k3 s^2 d / 2. tol = 1e-5 (so rounding, 1e-12, is far below).
+    (1) P on the curve, starts s = 2.1 s0 away, s0 = (0.1 tol / k3)^(1/3): such a step must
+    be evaluated, not expanded (expanded, its foot would be off by 8.6 / 6 x 0.1 tol). (2) P
+    100 mm off on the convex side, starts 0.02 mm away: the residual's bound allows only
+    sqrt(0.1 tol / (k3 d)) ~ 4e-4 mm (expanded, the residual would be ~1e-3 mm). Checked:
+    converged, the foot is C(t) (closed form) to 0.1 tol + 1e-12 and the tangential residual
+    |C'.(C - P)| / |C'| at t is <= tol + 1e-12. Catches a larger finish factor and a finish
+    bound that ignores, or inverts, the distance."""
+    tol = 1e-5
+    c = cubic_curve()
+    on = lambda t: np.column_stack([t, E_CUB * t ** 3])
+    tangent = lambda t: np.column_stack([np.ones_like(t), 3 * E_CUB * t ** 2])
+    ts = np.array([-2.0, -0.5, 0.3, 1.0, 2.5, 4.0])
+    speed = np.linalg.norm(tangent(ts), axis=1)
+    s0 = (0.1 * tol / (6 * E_CUB / speed ** 3)) ** (1 / 3)
+    starts = []
+    for sign in (-1.0, 1.0):
+        t0 = ts + sign * 2.1 * s0 / speed
+        for _ in range(3):                           # the arc 2.1 s0 long, to ~1e-6 of itself
+            arc = np.array([np.linalg.norm(on(np.linspace(a, b, 64))[1:] - on(np.linspace(a, b, 64))[:-1], axis=1).sum()
+                            for a, b in zip(ts, t0)])
+            t0 = ts + (t0 - ts) * 2.1 * s0 / arc
+        starts.append(t0)
+    P = np.concatenate([on(ts), on(ts)])
+    t0 = np.concatenate(starts)
+    n = tangent(ts)[:, ::-1] * [-1.0, 1.0] / speed[:, None]           # unit normal, towards C''
+    far = on(ts) - 100.0 * n * np.sign(ts)[:, None]                    # convex side (C'' = (0, 6e t))
+    P = np.concatenate([P, far])
+    t0 = np.concatenate([t0, ts + 0.02 / speed])
+    r = project_points_to_curve(c, P, t0, tol=tol)
+    assert r.converged.all()
+    assert np.abs(r.foot - on(r.t)).max() <= 0.1 * tol + 1e-12
+    T = tangent(r.t)
+    res = np.abs(np.einsum("ij,ij->i", T, on(r.t) - P)) / np.linalg.norm(T, axis=1)
+    assert res.max() <= tol + 1e-12
