@@ -547,3 +547,83 @@ def test_taylor_finish_error_stays_under_a_tenth_of_tol():
     T = tangent(r.t)
     res = np.abs(np.einsum("ij,ij->i", T, on(r.t) - P)) / np.linalg.norm(T, axis=1)
     assert res.max() <= tol + 1e-12
+
+
+@pytest.mark.parametrize("scale", [1e-3, 1.0, 1e6])
+def test_curve_newton_converges_quadratically_on_any_parametrisation(scale):
+    """The cubic curve with its knots scaled (speeds 1e3 to 1e-6 mm per unit): points at
+    distance d from feet t* with 1.5 <= |t*| <= 6 (away from the inflection at 0) and the
+    focal ratio 1 - k d in [0.3, 1.6] (both sides), starts 0.3 mm off: quadratic convergence
+    within ``max_iter = 3``, to t* (10 tol), the foot C(t) to 0.1 tol + 1e-12, the residual
+    <= tol + 1e-12 (closed form). Catches a step test or a Hessian threshold in parameter
+    units instead of millimetres."""
+    rng = np.random.default_rng(24)
+    ts = rng.uniform(1.5, 6, 30) * rng.choice([-1, 1], 30)
+    tangent = np.column_stack([np.ones(30), 3 * E_CUB * ts ** 2])
+    speed = np.linalg.norm(tangent, axis=1)
+    n = tangent[:, ::-1] * [-1.0, 1.0] / speed[:, None]
+    kappa = 6 * E_CUB * ts / speed ** 3                              # signed, along n
+    d = (1 - rng.uniform(0.3, 1.6, 30)) / kappa
+    P = np.column_stack([ts, E_CUB * ts ** 3]) + n * d[:, None]
+    c0 = cubic_curve()
+    c = BSplineCurve(c0.poles, c0.knots * scale, c0.mults, 3, False)
+    r = project_points_to_curve(c, P, (ts + rng.choice([-0.3, 0.3], 30) / speed) * scale, max_iter=3)
+    assert r.converged.all()
+    t = r.t / scale
+    assert np.abs((t - ts) * speed).max() < 10 * TOL
+    foot = np.column_stack([t, E_CUB * t ** 3])
+    assert np.abs(r.foot - foot).max() <= 0.1 * TOL + 1e-12
+    T = np.column_stack([np.ones(30), 3 * E_CUB * t ** 2])
+    assert (np.abs(np.einsum("ij,ij->i", T, foot - P)) / np.linalg.norm(T, axis=1)).max() <= TOL + 1e-12
+
+
+# --------------------------------------------------------------------------- convergence test
+def test_tol_zero_converges_where_the_foot_is_exact():
+    """tol bounds the residual and the next step with <= (documented): with tol = 0 a foot
+    whose residual and step are exactly zero has still converged. Beyond a corner of the
+    plane both parameters are held on their ends, so the residual over the free directions
+    and the step are exactly 0: converged at the corner, from the corner as start; beyond an
+    end of the line, likewise. Catches strict comparisons (< tol, < finish size)."""
+    s = plane2()
+    P = np.array([[-3.0, -5.0, 2.0], [125.0, -1.0, -1.0], [-2.0, 170.0, 0.5], [121.0, 162.0, 3.0]])
+    u0 = np.array([0.0, 40.0, 0.0, 40.0]) * SPAN_U
+    v0 = np.array([0.0, 0.0, 40.0, 40.0]) * SPAN_V
+    r = project_points_to_surface(s, P, u0, v0, tol=0.0)
+    assert r.converged.all() and np.array_equal(r.u, u0) and np.array_equal(r.v, v0)
+    assert np.abs(r.foot - np.column_stack([3 * u0 / SPAN_U, 4 * v0 / SPAN_V, np.zeros(4)])).max() < 1e-12
+    c = line2()
+    Q = np.array([[-4.0, 1.0], [125.0, -158.0]])                    # beyond t = 0 and t = 40 spans
+    rc = project_points_to_curve(c, Q, np.array([0.0, 40.0 * SPAN_U]), tol=0.0)
+    assert rc.converged.all() and np.array_equal(rc.t, [0.0, 40.0 * SPAN_U])
+
+
+# --------------------------------------------------------------------------- derivatives returned
+def test_derivatives_returned_at_the_foot():
+    """``_newton_curve`` returns [C, C', C''] at the foot and ``_newton_surface`` [S, S_u, S_v,
+    S_uu, S_uv, S_vv] (the search keeps C', C'' / S_u, S_v for the normals and curvatures):
+    on the degree-2 parabola and paraboloid (Taylor steps exact, second derivatives constant)
+    they are the closed forms at the returned parameters, to rounding (1e-9 of ~10).
+    Catches a derivative written to the wrong row."""
+    rng = np.random.default_rng(25)
+    c = parabola2()
+    model = proj_evaluation._CurveModel(c)
+    x = rng.uniform(-8, 8, 20)
+    Q = np.column_stack([x, C_PAR * x * x]) + rng.normal(0, 1.0, (20, 2))
+    t, D, conv, _ = proj_newton._newton_curve(model, np.ascontiguousarray(Q.T), model.evaluate(x, 2), TOL, 30, 1e-12)
+    assert conv.all()
+    want = [np.column_stack([t, C_PAR * t * t]), np.column_stack([np.ones(20), 2 * C_PAR * t]),
+            np.tile([0.0, 2 * C_PAR], (20, 1))]
+    for k in range(3):
+        assert np.abs(D[k].T - want[k]).max() < 1e-9, k
+    s = paraboloid2()
+    smodel = proj_evaluation._SurfaceModel(s)
+    P = _paraboloid_points(20, rng)
+    X0, Y0 = paraboloid_feet(P).T
+    u, v, D, conv, _ = proj_newton._newton_surface(smodel, np.ascontiguousarray(P.T), smodel.evaluate(X0 + 0.1, Y0, 2),
+                                                   TOL, 30, 1e-12)
+    assert conv.all()
+    z = np.zeros(20)
+    want = [on_paraboloid(u, v), np.column_stack([z + 1, z, 2 * A_PAR * u]), np.column_stack([z, z + 1, 2 * B_PAR * v]),
+            np.tile([0.0, 0.0, 2 * A_PAR], (20, 1)), np.zeros((20, 3)), np.tile([0.0, 0.0, 2 * B_PAR], (20, 1))]
+    for k in range(6):
+        assert np.abs(D[k].T - want[k]).max() < 1e-9, k
