@@ -627,3 +627,89 @@ def test_derivatives_returned_at_the_foot():
             np.tile([0.0, 0.0, 2 * A_PAR], (20, 1)), np.zeros((20, 3)), np.tile([0.0, 0.0, 2 * B_PAR], (20, 1))]
     for k in range(6):
         assert np.abs(D[k].T - want[k]).max() < 1e-9, k
+
+
+def test_taylor_finish_bound_holds_on_a_skewed_cubic_parametrisation():
+    """The plane z = 0 with a skewed parametrisation cubic in v: X = u + c (v + al v^3),
+    Y = s v, c = 0.99 (S_u and S_v 8 degrees apart), al = 0.02 (bicubic, exact). The
+    quadratic Taylor model misses S by the parametrisation's cubic term, largest along the
+    slow direction, which the finish bound covers through the metric's smallest eigenvalue.
+    tol = 1e-5; P at heights up to 2 mm over 12 feet, starts on rings of 0.01 to 1 parameter
+    units round them: converged, the foot returned is S(u, v) (closed form) to 0.1 tol + 1e-12
+    and the orthogonal projection of P to 10 tol. Catches a smallest eigenvalue or a foot
+    move that ignores or misreads S_u.S_v (steps then expanded that should be evaluated)."""
+    c, s, al = 0.99, np.sqrt(1 - 0.99 ** 2), 0.02
+    xy = lambda u, v: (u + c * (v + al * v ** 3), s * v)
+
+    def f(u, v):
+        X, Y = xy(u, v)
+        return np.stack([X, Y, 0 * X], axis=-1)
+    surf = _interpolated(f, np.array([-10.0, -5.0, 0.0, 5.0, 10.0]))
+    tol = 1e-5
+    rng = np.random.default_rng(26)
+    u, v = rng.uniform(-6, 6, 12), rng.uniform(-6, 6, 12)
+    X0, Y0 = xy(u, v)
+    P = np.column_stack([X0, Y0, rng.uniform(-2, 2, 12)])
+    ang = np.linspace(0, 2 * np.pi, 16, endpoint=False)
+    radii = np.array([0.01, 0.03, 0.1, 0.3, 1.0])
+    ring = (radii[:, None] * np.exp(1j * ang[None, :])).ravel()
+    U0, V0 = (u[:, None] + ring.real).ravel(), (v[:, None] + ring.imag).ravel()
+    PP = np.repeat(P, ring.size, axis=0)
+    r = project_points_to_surface(surf, PP, U0, V0, tol=tol)
+    assert r.converged.all()
+    Xr, Yr = xy(r.u, r.v)
+    assert np.abs(r.foot - np.column_stack([Xr, Yr, 0 * Xr])).max() <= 0.1 * tol + 1e-12
+    assert np.abs(r.foot - PP * [1.0, 1.0, 0.0]).max() <= 10 * tol
+
+
+def test_a_taylor_step_across_a_knot_is_not_kept():
+    """z = a1 X^2 (X < 0), a2 X^2 (X >= 0) + b Y^2: a C1 surface (a double knot at u = 0 of a
+    bicubic: the curvature jumps from 0.1 to 0.3). The Taylor model of one patch is wrong on
+    the other, so a finish step that ends in another knot span (in u alone: v stays in its
+    span) must be evaluated: from starts across the knot from feet 0.01 to 0.3 mm beside it,
+    tol = 1e-5, the feet converge to the constructed ones (10 tol) with the foot S(u, v)
+    (closed form) to 0.1 tol + 1e-12 (a kept step would be off by ~0.1 x (0.3 mm)^2)."""
+    a1, a2, b = 0.05, 0.15, 0.03
+    z = lambda X, Y: np.where(X < 0, a1, a2) * X ** 2 + b * Y ** 2
+    knots = [np.array([-10.0, -5.0, 0.0, 5.0, 10.0]), np.array([-10.0, 0.0, 10.0])]
+    mults = [np.array([4, 1, 2, 1, 4]), np.array([4, 1, 4])]
+    t = [np.repeat(k, m) for k, m in zip(knots, mults)]
+    g = [_greville(tt, 3) for tt in t]
+    B = [BSpline(tt, np.eye(gg.size), 3)(gg) for tt, gg in zip(t, g)]
+    U, V = np.meshgrid(g[0], g[1], indexing="ij")
+    C = np.linalg.solve(B[0], np.stack([U, V, z(U, V)], axis=-1).reshape(g[0].size, -1)).reshape(U.shape + (3,))
+    C = np.linalg.solve(B[1], C.transpose(1, 0, 2).reshape(g[1].size, -1)).reshape(g[1].size, g[0].size, 3)
+    surf = BSplineSurface(np.ascontiguousarray(C.transpose(1, 0, 2)), knots[0], mults[0], knots[1], mults[1], 3, 3)
+    tol = 1e-5
+    rng = np.random.default_rng(27)
+    X0, Y0 = rng.choice([-1, 1], 40) * rng.uniform(0.01, 0.3, 40), rng.uniform(-3, 3, 40)
+    n = np.column_stack([-np.where(X0 < 0, 2 * a1, 2 * a2) * X0, -2 * b * Y0, np.ones(40)])
+    P = np.column_stack([X0, Y0, z(X0, Y0)]) + n / np.linalg.norm(n, axis=1, keepdims=True) * rng.uniform(-2, 2, 40)[:, None]
+    r = project_points_to_surface(surf, P, -X0 * rng.uniform(0.5, 2, 40), Y0 + 0.01, tol=tol)
+    assert r.converged.all()
+    assert np.abs(r.u - X0).max() < 10 * tol and np.abs(r.v - Y0).max() < 10 * tol
+    assert np.abs(r.foot - np.column_stack([r.u, r.v, z(r.u, r.v)])).max() <= 0.1 * tol + 1e-12
+
+
+def test_max_iter_zero_on_a_parabola_returns_two_clipped_newton_iterations():
+    """With ``max_iter = 0`` on a degree-2 curve (its quadratic Taylor model exact) the foot
+    returned is the start moved by the refined step: two Newton iterations on
+    f(t) = |C(t) - P|^2 / 2 (closed form: f' = (t - x) + 2ct (ct^2 - y), f'' = 1 + 2c (3ct^2 - y)),
+    each clipped to the trust region (four spans: 8) and to the domain, where it is no farther
+    from P than the start (else the start). Starts where f'' > 0 at both points (the Newton
+    branch), 1e-9 (rounding of t ~ 16). Catches a first step clipped wrongly before its
+    refinement (the refinement then starts elsewhere)."""
+    c = parabola2()
+    rng = np.random.default_rng(28)
+    P, t0 = rng.uniform(-14, 14, (400, 2)), rng.uniform(-16, 16, 400)
+    d1 = lambda t: (t - P[:, 0]) + 2 * C_PAR * t * (C_PAR * t * t - P[:, 1])
+    d2 = lambda t: 1 + 2 * C_PAR * (3 * C_PAR * t * t - P[:, 1])
+    clip = lambda a: np.clip(t0 + np.clip(a, -8.0, 8.0), -16.0, 16.0) - t0
+    a1 = clip(-d1(t0) / d2(t0))
+    a2 = clip(a1 - d1(t0 + a1) / d2(t0 + a1))
+    newton = (d2(t0) > 0.05) & (d2(t0 + a1) > 0.05)
+    assert newton.sum() > 300
+    dist = lambda t: np.hypot(t - P[:, 0], C_PAR * t * t - P[:, 1])
+    want = np.where(dist(t0 + a2) <= dist(t0), t0 + a2, t0)
+    r = project_points_to_curve(c, P, t0, max_iter=0)
+    assert np.abs(r.t - want)[newton].max() < 1e-9
