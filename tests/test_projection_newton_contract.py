@@ -2,16 +2,19 @@
 """Contract tests of :mod:`bladerecon.core.geometry.projection.newton`: the trust-region Newton
 iteration, checked on what it documents and against referees that share no code with it.
 
-Referees:
+Referees (none uses the package's evaluation or Newton code):
 
 * closed forms: the feet on a degree-2 plane, line, parabola and paraboloid (whose B-spline
   poles are exact: the blossoms of x, x^2 at the knots, all small integers or halves), the
   paraboloid's feet by the monotone Lagrange equation of the quadric (``scipy.optimize.brentq``),
-  the parabola's by the roots of its cubic (``numpy.roots``); the principal curvatures of the
-  paraboloid at its vertex (2a, 2b) for the focal ratio (1 - k1 d)(1 - k2 d);
-* the polynomial a spline interpolates, evaluated by hand with its derivatives, for the
-  cubic test surfaces (foot = S(u, v), tangential residuals at the returned parameters);
-* brute force: L-BFGS-B (``scipy.optimize.minimize``) on the polynomial itself.
+  the parabola's by the roots of its cubic (``numpy.roots``); the paraboloid's fundamental
+  forms for the focal ratio (1 - k1 d)(1 - k2 d); the feet on a folded plane;
+* constructed feet: P = S + d n (+ a move across an edge) on polynomial surfaces and curves
+  that a bicubic spline holds exactly (interpolated with scipy's collocation matrix: a cubic
+  patch under scalings of its parameters, a skewed plane with a cubic term in v, a C1 surface
+  with a double knot, the cubic curve (t, e t^3)), checked with the polynomial and its
+  derivatives by hand: the foot S(u, v), the tangential residuals, the Newton step;
+* two Newton iterations on the parabola's closed-form distance, for the refined step.
 
 What the Newton iteration documents, and so what is checked:
 
@@ -23,9 +26,10 @@ What the Newton iteration documents, and so what is checked:
 * a step small enough is taken by Taylor expansion with an error under 0.1 ``tol`` in the
   foot (``_FINISH``); the point has converged when the tangential residual and the next step
   are both <= ``tol``; the foot returned at ``max_iter`` unconverged is the best one found;
-* the exact Hessian is used where it is positive definite, else Gauss-Newton J^T J: Newton
-  converges quadratically on any parametrisation (parameter ranges of 1e-3 or 1e5 per
-  10 mm as well as of 1), and never to a saddle or maximum of the distance;
+* the exact Hessian is used where it is positive definite, else Gauss-Newton J^T J (its
+  diagonal raised, a descent direction even where J^T J is singular): Newton converges
+  quadratically on any parametrisation (knots scaled by 1e-3 ... 1e6, and 1e5 apart), and
+  never to a saddle or maximum of the distance;
 * the focal ratio returned is det H / det J^T J = (1 - k1 d)(1 - k2 d) at the foot.
 
 Run time: every test well under a second; no test changes module state.
@@ -35,7 +39,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from scipy.interpolate import BSpline
-from scipy.optimize import brentq, minimize
+from scipy.optimize import brentq
+
 
 from bladerecon.core.geometry.projection import cache as proj_cache
 from bladerecon.core.geometry.projection import evaluation as proj_evaluation
@@ -713,3 +718,106 @@ def test_max_iter_zero_on_a_parabola_returns_two_clipped_newton_iterations():
     want = np.where(dist(t0 + a2) <= dist(t0), t0 + a2, t0)
     r = project_points_to_curve(c, P, t0, max_iter=0)
     assert np.abs(r.t - want)[newton].max() < 1e-9
+
+
+def test_converged_means_the_residual_and_the_step_are_both_within_tol():
+    """Points 30 to 300 mm off the convex side of the degree-2 paraboloid and parabola, starts
+    0.01 to 3 mm off their feet, tol = 1e-6: every point converges, and its tangential
+    residual at the returned parameters (closed form; rounding ~1e-13 at 300 mm) is <= tol.
+    There the Hessian is large ((1 + k d) |S_u|^2, 1 + k d up to 60), so the next Newton step
+    is that much smaller than the residual: a convergence test on the step alone (or on
+    either) stops with residuals up to 60 tol. Degree 2: every step is expanded (no third
+    derivative), so the test runs at every iteration."""
+    tol = 1e-6
+    rng = np.random.default_rng(29)
+    m = 600
+    X0, Y0 = rng.uniform(-10, 10, m), rng.uniform(-10, 10, m)
+    P = on_paraboloid(X0, Y0) - paraboloid_normal(X0, Y0) * rng.uniform(30, 300, m)[:, None]
+    e, ang = 10 ** rng.uniform(-2, 0.5, m), rng.uniform(0, 2 * np.pi, m)
+    r = project_points_to_surface(paraboloid2(), P, X0 + e * np.cos(ang), Y0 + e * np.sin(ang), tol=tol)
+    assert r.converged.all()
+    off = on_paraboloid(r.u, r.v) - P
+    for T in (np.column_stack([np.ones(m), np.zeros(m), 2 * A_PAR * r.u]),
+              np.column_stack([np.zeros(m), np.ones(m), 2 * B_PAR * r.v])):
+        assert (np.abs(np.einsum("ij,ij->i", T, off)) / np.linalg.norm(T, axis=1)).max() <= tol
+    x = rng.uniform(-10, 10, m)
+    n = np.column_stack([-2 * C_PAR * x, np.ones(m)]) / np.hypot(2 * C_PAR * x, 1)[:, None]
+    Q = np.column_stack([x, C_PAR * x * x]) - n * rng.uniform(30, 300, m)[:, None]
+    rc = project_points_to_curve(parabola2(), Q, x + e * np.cos(ang), tol=tol)
+    assert rc.converged.all()
+    T = np.column_stack([np.ones(m), 2 * C_PAR * rc.t])
+    off = np.column_stack([rc.t, C_PAR * rc.t ** 2]) - Q
+    assert (np.abs(np.einsum("ij,ij->i", T, off)) / np.linalg.norm(T, axis=1)).max() <= tol
+
+
+def test_converged_feet_near_centres_of_curvature_in_skewed_parameters():
+    """The paraboloid in parameters 8 degrees apart ((X, Y) = (u - 0.99 v, 0.14 v)), points on
+    the concave side near a centre of curvature of their foot (focal ratio q in [0.02, 0.3]:
+    d = (1 - q) / k1, k1 the larger principal curvature, closed form), starts 0.001 to 0.3
+    off, tol = 1e-6. There the next Newton step is up to 1/q times the residual, so the test
+    on the step's length |du S_u + dv S_v| is what holds the foot. At each converged foot the
+    residual and the next Newton step's length |J H^-1 g| (closed form in (X, Y): Newton steps
+    do not depend on a linear reparametrisation) are <= tol (1 + 1e-6, rounding), wherever
+    both parameters are free (a foot held on the domain's edge has a longer step outwards).
+    (Near a centre of curvature a second foot may lie next to the constructed one, so the foot
+    reached is not compared with it.) Catches a step length that misreads S_u.S_v (it stops
+    with steps of several tol)."""
+    tol = 1e-6
+    c = -0.99
+    M = ((1.0, c), (0.0, np.sqrt(1 - c * c)))
+    rng = np.random.default_rng(30)
+    m = 1500
+    X0, Y0 = rng.uniform(-5, 5, m), rng.uniform(-1.3, 1.3, m)        # (u, v) inside [-15, 15]^2
+    n = paraboloid_normal(X0, Y0)
+    E, F, G = 1 + 4 * A_PAR ** 2 * X0 ** 2, 4 * A_PAR * B_PAR * X0 * Y0, 1 + 4 * B_PAR ** 2 * Y0 ** 2
+    L, N = 2 * A_PAR * n[:, 2], 2 * B_PAR * n[:, 2]
+    det = E * G - F * F
+    H, K = (E * N + G * L) / (2 * det), L * N / det                # mean and Gauss curvature (M = 0)
+    k1 = H + np.sqrt(H * H - K)
+    d = (1 - rng.uniform(0.02, 0.3, m)) / k1
+    P = on_paraboloid(X0, Y0) + n * d[:, None]
+    uv = np.linalg.solve(M, np.vstack([X0, Y0]))
+    e, ang = 10 ** rng.uniform(-3, -0.5, m), rng.uniform(0, 2 * np.pi, m)
+    r = project_points_to_surface(paraboloid2(M), P, uv[0] + e * np.cos(ang), uv[1] + e * np.sin(ang), tol=tol)
+    inner = r.converged & (np.abs(r.u) < 16) & (np.abs(r.v) < 16)       # free in both parameters
+    assert inner.mean() > 0.99
+    X, Y = (np.asarray(M) @ np.vstack([r.u, r.v]))[:, inner]
+    k = X.size
+    off = on_paraboloid(X, Y) - P[inner]
+
+    SX = np.column_stack([np.ones(k), np.zeros(k), 2 * A_PAR * X])
+    SY = np.column_stack([np.zeros(k), np.ones(k), 2 * B_PAR * Y])
+    gX, gY = np.einsum("ij,ij->i", SX, off), np.einsum("ij,ij->i", SY, off)
+    hXX = np.einsum("ij,ij->i", SX, SX) + 2 * A_PAR * off[:, 2]
+    hXY = np.einsum("ij,ij->i", SX, SY)
+    hYY = np.einsum("ij,ij->i", SY, SY) + 2 * B_PAR * off[:, 2]
+    detH = hXX * hYY - hXY * hXY
+    dX, dY = -(hYY * gX - hXY * gY) / detH, -(hXX * gY - hXY * gX) / detH
+    assert np.all(detH > 0)
+    assert np.linalg.norm(SX * dX[:, None] + SY * dY[:, None], axis=1).max() <= tol * (1 + 1e-6)
+    assert np.maximum(np.abs(gX) / np.linalg.norm(SX, axis=1), np.abs(gY) / np.linalg.norm(SY, axis=1)).max() <= tol * (1 + 1e-6)
+
+
+
+def test_gauss_newton_steps_descend_where_the_parametrisation_folds():
+    """S(u, v) = (u + v, (u - v)^2, 0) (biquadratic, exact): the plane z = 0 over y >= 0, folded
+    along u = v, where S_u = S_v (J^T J singular). For P over y > 0 the feet are (x, y, 0) at
+    |u - v| = sqrt(y), distance |z| (closed form); across the fold the distance has a maximum
+    (the Hessian is indefinite), so Newton takes the Gauss-Newton step there, which must stay
+    a descent direction though J^T J is singular: its diagonal is raised, never lowered.
+    Starts 1e-9 to 1e-7 off the fold: every point converges to the closed-form distance
+    (1e-9, 10 tol). (On the fold the metric is singular and the Taylor finish bound is 0 / 0,
+    which the code reads as "no expansion": numpy's warning is silenced here.)"""
+    k, m, g, g2 = _degree2_knots(-4, 4, 1)
+    U, V = np.meshgrid(g, g, indexing="ij")
+    UU, VV = np.meshgrid(g2, g2, indexing="ij")
+    s = BSplineSurface(np.stack([U + V, UU - 2 * U * V + VV, 0 * U], axis=-1), k, m, k, m, 2, 2)
+    rng = np.random.default_rng(31)
+    n = 200
+    P = np.column_stack([rng.uniform(-2, 2, n), rng.uniform(0.2, 3, n), rng.uniform(-1, 1, n)])
+    w0, s0 = rng.choice([-1, 1], n) * 10 ** rng.uniform(-9, -7, n), rng.uniform(-2, 2, n)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        r = project_points_to_surface(s, P, (s0 + w0) / 2, (s0 - w0) / 2)
+    assert r.converged.all()
+    assert np.abs(r.distance - np.abs(P[:, 2])).max() < 1e-9
+    assert np.abs(r.foot - P * [1.0, 1.0, 0.0]).max() < 1e-9
