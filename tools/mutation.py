@@ -28,7 +28,8 @@ VENV = ROOT / ".cache" / "mutation-venv"
 MUTMUT = VENV / "bin" / "mutmut"
 PYTHON = "/usr/bin/python3"
 
-_PROJECTION_TESTS = "tests/test_projection_grid_contract.py tests/test_projection_contract.py tests/test_projection.py"
+_PROJECTION_TESTS = ("tests/test_projection_newton_contract.py tests/test_projection_grid_contract.py "
+                     "tests/test_projection_contract.py tests/test_projection.py")
 _PROJECTION_SLOW = ("--deselect tests/test_projection.py::test_speed_one_million_points_print "
                    "--deselect tests/test_projection.py::test_feet_round_a_thin_edge_are_found "
                    "--deselect tests/test_projection.py::test_collapsed_low_degree_and_far "

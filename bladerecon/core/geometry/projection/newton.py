@@ -51,17 +51,20 @@ def _surface_step(model: _SurfaceModel, u, v, pieces, r, Su, Sv, Suu, Suv, Svv):
     det = huu * hvv - huv * huv
     gram = guu * gvv - guv * guv
     exact = (huu > 0) & (hvv > 0) & (det > 1e-12 * huu * hvv)
-    lam = 1e-12 * (guu + gvv) + 1e-300
-    muu = np.where(exact, huu, guu + lam)
-    mvv = np.where(exact, hvv, gvv + lam)
+    # J^T J with each diagonal term raised by 1e-12 of itself: positive definite, and the same
+    # on any scaling of u and v (one shared term would swamp the smaller one)
+    lam_u, lam_v = 1e-12 * guu + 1e-300, 1e-12 * gvv + 1e-300
+    muu = np.where(exact, huu, guu + lam_u)
+    mvv = np.where(exact, hvv, gvv + lam_v)
     muv = np.where(exact, huv, guv)
     detm = muu * mvv - muv * muv
     fix_u, fix_v = model.u.held(u, gu, pieces[0]), model.v.held(v, gv, pieces[1])
     fix_u |= guu <= 1e-20 * gvv            # a collapsed edge: moving u does not move the foot
     fix_v |= gvv <= 1e-20 * guu
     # with one parameter held, Newton along the other uses its own second derivative
-    du = np.where(fix_v, -gu / np.where(huu > 0, huu, guu + lam), -(mvv * gu - muv * gv) / detm)
-    dv = np.where(fix_u, -gv / np.where(hvv > 0, hvv, gvv + lam), -(muu * gv - muv * gu) / detm)
+    du = np.where(fix_v, -gu / np.where(huu > 0, huu, guu + lam_u), -(mvv * gu - muv * gv) / detm)
+    dv = np.where(fix_u, -gv / np.where(hvv > 0, hvv, gvv + lam_v), -(muu * gv - muv * gu) / detm)
+
     du[fix_u] = 0.0
     dv[fix_v] = 0.0
     res_u = np.where(fix_u, 0.0, np.abs(gu) / np.sqrt(np.maximum(guu, 1e-300)))
@@ -146,7 +149,9 @@ def _newton_surface(model: _SurfaceModel, P: np.ndarray, start: tuple, tol: floa
     (within the rounding ``noise``); a rejected step quarters the trust region. A step
     small enough (:func:`_finish_size`) is taken by Taylor expansion instead of a new
     evaluation; the point has converged when there the tangential residual and the next
-    Newton step are both <= tol (mm).
+    Newton step are both <= tol (mm). A point still unconverged at ``max_iter`` keeps the
+    best foot found: the last accepted one, or its Taylor-expanded step where that is no
+    farther from P.
 
     Returns u, v, the derivatives [S, S_u, S_v, S_uu, S_uv, S_vv] at the foot (6, 3, m) (the
     second ones from the last evaluation), converged, focal (see :func:`_surface_step`).
@@ -177,7 +182,8 @@ def _newton_surface(model: _SurfaceModel, P: np.ndarray, start: tuple, tol: floa
             du2, dv2, res2, metric2, focal2 = _surface_step(model, u2, v2, ps, T[0] - Ps, T[1], T[2], *Ds[3:])
             ok = (res2 <= tol) & (_foot_move(du2, dv2, metric2) <= tol)
             ok &= (su2 == su[small]) & (sv2 == sv[small])        # the expansion holds on its own patch
-            take = ok | (it == max_iter)
+            # at max_iter an unconverged point keeps the expanded step only where it is no farther
+            take = ok | ((it == max_iter) & (np.sqrt(_dot(T[0] - Ps, T[0] - Ps)) <= dist[small] + noise))
             k, w = idx[small[take]], small[take]
             out_u[k], out_v[k], out_focal[k], converged[k] = u2[take], v2[take], focal2[take], ok[take]
             out_D[:3, :, k] = np.stack(T)[:, :, take]
@@ -266,7 +272,8 @@ def _newton_curve(model: _CurveModel, P: np.ndarray, start: tuple, tol: float, m
             t2, span2, _ = model.t.locate(t[small] + a[small], piece[small])
             dt2, res2, g2, focal2 = _curve_step(model, t2, piece[small], Cs - P[:, small], C1s, Ds[2])
             ok = (res2 <= tol) & (np.abs(dt2) * np.sqrt(g2) <= tol) & (span2 == span[small])
-            take = ok | (it == max_iter)
+            Ps = P[:, small]
+            take = ok | ((it == max_iter) & (np.sqrt(_dot(Cs - Ps, Cs - Ps)) <= dist[small] + noise))
             k, w = idx[small[take]], small[take]
             out_t[k], out_focal[k], converged[k] = t2[take], focal2[take], ok[take]
             out_D[0][:, k], out_D[1][:, k], out_D[2][:, k] = Cs[:, take], C1s[:, take], Ds[2][:, take]
