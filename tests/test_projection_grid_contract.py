@@ -32,35 +32,9 @@ REL = 1e-12
 
 
 # ---------------------------------------------------------------- splines built here
+from spline_referees import basis as _basis, fresh_cache, full_knots as _full  # noqa: F401 (fresh_cache: autouse)
+from spline_referees import greville as _greville, interpolated_surface as _interpolated_surface
 
-def _full(knots, mults, degree, periodic=False):
-    knots, mults = np.asarray(knots, float), np.asarray(mults, int)
-    if not periodic:
-        return np.repeat(knots, mults)
-    period = knots[-1] - knots[0]
-    core = np.repeat(knots[:-1], mults[:-1])
-    return np.concatenate([core[core.size - degree:] - period, core, core[: degree + 1] + period])
-
-
-def _basis(t, k, x, nu=0):
-    n = len(t) - k - 1
-    return BSpline(t, np.eye(n), k)(np.asarray(x, float), nu)
-
-
-def _greville(t, k):
-    n = len(t) - k - 1
-    return np.array([t[i + 1: i + k + 1].mean() for i in range(n)])
-
-
-def _interpolated_surface(f, u_knots, u_mults, v_knots, v_mults, p, q) -> BSplineSurface:
-    """Clamped surface interpolating f at the Greville points: exactly f for a polynomial f."""
-    tu, tv = _full(u_knots, u_mults, p), _full(v_knots, v_mults, q)
-    gu, gv = _greville(tu, p), _greville(tv, q)
-    F = f(gu[:, None], gv[None, :])
-    C = np.linalg.solve(_basis(tu, p, gu), F.reshape(gu.size, -1)).reshape(gu.size, gv.size, 3)
-    C = np.linalg.solve(_basis(tv, q, gv), C.transpose(1, 0, 2).reshape(gv.size, -1)).reshape(gv.size, gu.size, 3)
-    return BSplineSurface(np.ascontiguousarray(C.transpose(1, 0, 2)), np.asarray(u_knots, float),
-                          np.asarray(u_mults), np.asarray(v_knots, float), np.asarray(v_mults), p, q)
 
 
 def _ref_surface(s: BSplineSurface, u, v, du=0, dv=0):

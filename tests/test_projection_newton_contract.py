@@ -42,7 +42,6 @@ from scipy.interpolate import BSpline
 from scipy.optimize import brentq
 
 
-from bladerecon.core.geometry.projection import cache as proj_cache
 from bladerecon.core.geometry.projection import evaluation as proj_evaluation
 from bladerecon.core.geometry.projection import newton as proj_newton
 from bladerecon.core.geometry.projection import project_points_to_curve, project_points_to_surface
@@ -51,14 +50,7 @@ from bladerecon.core.geometry.spline import BSplineCurve, BSplineSurface
 TOL = 1e-10          # mm: the projection's default tolerance
 
 
-@pytest.fixture(autouse=True)
-def fresh_cache():
-    """The spline cache empty before and after every test."""
-    proj_cache._cache.clear()
-    try:
-        yield
-    finally:
-        proj_cache._cache.clear()
+from spline_referees import fresh_cache, greville as _greville  # noqa: F401 (fresh_cache: autouse)
 
 
 # --------------------------------------------------------------------------- exact degree-2 splines
@@ -148,10 +140,6 @@ def paraboloid_focal(X, Y, P):
     E, F, G = 1 + 4 * A_PAR ** 2 * X ** 2, 4 * A_PAR * B_PAR * X * Y, 1 + 4 * B_PAR ** 2 * Y ** 2
     L, N = 2 * A_PAR * n[:, 2], 2 * B_PAR * n[:, 2]
     return ((E - d * L) * (G - d * N) - F * F) / (E * G - F * F)
-
-
-def _greville(t, k):
-    return np.array([t[i + 1: i + k + 1].mean() for i in range(len(t) - k - 1)])
 
 
 def _interpolated(f, knots, degree=3):

@@ -65,10 +65,11 @@ def plot_section(path: str, seg, params, nominal_seg=None) -> None:
     camber = fr.to_plane(params.camber)
     # the chord's ends as measured (on an ellipse's tip or a flat's midpoint), not the segmentation's
     ends = fr.to_plane(np.vstack([params.le, params.te]))
+    outlines = {which: edge_outline(fr, params, which) for which in ("le", "te")}
+    nom = None if nominal_seg is None else fr.to_plane(nominal_seg.frame.to_space(
+        evaluate_curve(nominal_seg.curve, np.linspace(*nominal_seg.curve.domain, 4000))))
     for a in [ax, *zooms]:
-        if nominal_seg is not None:
-            nom = fr.to_plane(nominal_seg.frame.to_space(
-                evaluate_curve(nominal_seg.curve, np.linspace(*nominal_seg.curve.domain, 4000))))
+        if nom is not None:
             a.plot(nom[:, 0], nom[:, 1], "--", color="0.5", lw=0.8, label="nominal")
         for region in (LE, SUCTION, TE, PRESSURE):
             c = _region_curve(seg, region)
@@ -81,8 +82,7 @@ def plot_section(path: str, seg, params, nominal_seg=None) -> None:
         a.plot(joints[:, 0], joints[:, 1], "kx", ms=7, label="joints")
         a.plot(*ends[0], "ro", ms=5)
         a.plot(*ends[1], "o", color="tab:orange", ms=5)
-        for which in ("le", "te"):
-            outline = edge_outline(fr, params, which)
+        for outline in outlines.values():
             if outline is not None:
                 a.plot(outline[:, 0], outline[:, 1], "-", color="k", lw=0.5 if len(outline) > 2 else 1.5)
         if seg.throat is not None:
@@ -95,7 +95,7 @@ def plot_section(path: str, seg, params, nominal_seg=None) -> None:
                  f"r_LE {_f(params.le_radius)}, r_TE {_f(params.te_radius)} mm", fontsize=9)
     for a, end, name in ((zooms[0], ends[0], "LE"), (zooms[1], ends[1], "TE")):
         # the edge as drawn in the middle, its end point in view
-        outline = edge_outline(fr, params, name.lower())
+        outline = outlines[name.lower()]
         centre = end if outline is None else 0.5 * (outline.min(axis=0) + outline.max(axis=0))
         size = 0.0 if outline is None else max(float(np.abs(outline - centre).max()), float(np.abs(end - centre).max()))
         half = max(1.4 * size, 0.008 * params.chord) if size else 0.012 * params.chord

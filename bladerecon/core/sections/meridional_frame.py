@@ -338,10 +338,10 @@ def _conformal_loop(seg_c) -> np.ndarray:
     return seg_c.frame.to_space(loop)[:, :2]           # the segmentation's plane frame -> conformal (x, y)
 
 
-def _surface_area(surf: RevolutionSurface, seg_c) -> float:
-    """Area on the surface (mm²) of a profile segmented in the conformal plane: ∬ (r/r_ref)² dA
-    = ∮ F(x) dy, F(x) = ∫ (r/r_ref)² dx (trapezoids on 4001 points), over its dense loop."""
-    xy = _conformal_loop(seg_c)
+def _surface_area(surf: RevolutionSurface, xy: np.ndarray) -> float:
+    """Area on the surface (mm²) of a profile given by its dense loop ``xy`` in the conformal
+    plane (:func:`_conformal_loop`): ∬ (r/r_ref)² dA = ∮ F(x) dy, F(x) = ∫ (r/r_ref)² dx
+    (trapezoids on 4001 points)."""
     x, y = xy[:, 0], xy[:, 1]
     grid = np.linspace(x.min(), x.max(), 4001)
     s2 = surf.scale_at(grid) ** 2
@@ -465,6 +465,6 @@ def measure_meridional(seg, measure, axis=None, axis_point=None, strict_radius: 
              "thickness_at_fraction_mm": thick_frac, "thickness_at_fraction_chord_normal_mm": thick_frac_cn,
              "thickness_at_mm": thick_at, "thickness_at_chord_normal_mm": thick_at_cn,
              "camber_height_mm": camber_mm,
-             "camber_height_pos_frac": float(xs[k_c] / chord_c), "area_mm2": _surface_area(surf, seg_c),
+             "camber_height_pos_frac": float(xs[k_c] / chord_c), "area_mm2": _surface_area(surf, loop),
              "fit": fit.as_dict(), "warnings": list(pc.warnings)}
     return block, None
